@@ -1,0 +1,29 @@
+# penumbra_target_defaults(<target>): warnings, sanitizers and the build-tree paths
+# every Penumbra target shares.
+function(penumbra_target_defaults target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
+                                           -Wno-sign-conversion -Wnon-virtual-dtor)
+  if(PENUMBRA_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(PENUMBRA_SANITIZE)
+    target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer
+                                             -fno-sanitize-recover=undefined)
+    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+  endif()
+endfunction()
+
+# penumbra_add_test(<name> LABELS <labels...> SOURCES <files...> LIBS <targets...>)
+function(penumbra_add_test name)
+  cmake_parse_arguments(T "" "" "LABELS;SOURCES;LIBS" ${ARGN})
+  add_executable(${name} ${T_SOURCES})
+  penumbra_target_defaults(${name})
+  target_link_libraries(${name} PRIVATE ${T_LIBS} GTest::gtest GTest::gmock)
+  target_compile_definitions(${name} PRIVATE
+    PENUMBRA_SHADER_DIR="${PENUMBRA_SHADER_DIR}"
+    PENUMBRA_TEST_DATA_DIR="${CMAKE_SOURCE_DIR}/tests/data")
+  gtest_discover_tests(${name}
+    PROPERTIES LABELS "${T_LABELS}"
+               ENVIRONMENT "MESA_SHADER_CACHE_DIR=${PENUMBRA_MESA_CACHE_DIR};PENUMBRA_VALIDATION=1"
+    DISCOVERY_TIMEOUT 60)
+endfunction()
