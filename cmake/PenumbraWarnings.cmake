@@ -2,7 +2,8 @@
 # every Penumbra target shares.
 function(penumbra_target_defaults target)
   target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow -Wconversion
-                                           -Wno-sign-conversion -Wnon-virtual-dtor)
+                                           -Wno-sign-conversion -Wnon-virtual-dtor
+                                           -Wno-missing-field-initializers)  # Vulkan {sType} idiom
   if(PENUMBRA_WERROR)
     target_compile_options(${target} PRIVATE -Werror)
   endif()

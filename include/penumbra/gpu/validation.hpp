@@ -1,0 +1,35 @@
+#pragma once
+
+#include <cstddef>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace penumbra::gpu {
+
+enum class Severity { verbose, info, warning, error };
+
+struct ValidationMessage {
+  Severity severity = Severity::error;
+  std::string id;       // VUID or message id name, e.g. "VUID-vkCmdDispatch-None-08606"
+  std::string message;  // full text from the validation layer
+};
+
+// Collects validation-layer messages of warning and error severity. Thread-safe: the layer may
+// call from any thread. Tests consume the messages they caused with take().
+class ValidationSink {
+ public:
+  void push(ValidationMessage message);
+  std::vector<ValidationMessage> take();  // returns and clears the collected messages
+  size_t count() const;
+  size_t total_seen() const;  // every message ever pushed, never reset
+
+ private:
+  mutable std::mutex mutex_;
+  std::vector<ValidationMessage> messages_;
+  size_t total_ = 0;
+};
+
+std::string to_string(const ValidationMessage& message);
+
+}  // namespace penumbra::gpu

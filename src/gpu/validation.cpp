@@ -1,0 +1,47 @@
+#include <penumbra/gpu/validation.hpp>
+
+namespace penumbra::gpu {
+
+void ValidationSink::push(ValidationMessage message) {
+  std::lock_guard lock(mutex_);
+  messages_.push_back(std::move(message));
+  ++total_;
+}
+
+std::vector<ValidationMessage> ValidationSink::take() {
+  std::lock_guard lock(mutex_);
+  std::vector<ValidationMessage> out;
+  out.swap(messages_);
+  return out;
+}
+
+size_t ValidationSink::count() const {
+  std::lock_guard lock(mutex_);
+  return messages_.size();
+}
+
+size_t ValidationSink::total_seen() const {
+  std::lock_guard lock(mutex_);
+  return total_;
+}
+
+std::string to_string(const ValidationMessage& message) {
+  const char* severity = "error";
+  switch (message.severity) {
+    case Severity::verbose:
+      severity = "verbose";
+      break;
+    case Severity::info:
+      severity = "info";
+      break;
+    case Severity::warning:
+      severity = "warning";
+      break;
+    case Severity::error:
+      severity = "error";
+      break;
+  }
+  return std::string("[validation ") + severity + "] " + message.id + ": " + message.message;
+}
+
+}  // namespace penumbra::gpu
