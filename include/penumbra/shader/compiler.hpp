@@ -1,0 +1,116 @@
+#pragma once
+
+// GLSL -> SPIR-V compilation with glslang: #include resolution (GL_GOOGLE_include_directive is
+// enabled automatically), injected defines, real file:line diagnostics (also inside included
+// files) and an in-memory SPIR-V cache keyed on the preprocessed source.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <penumbra/core/error.hpp>
+#include <string>
+#include <string_view>
+#include <unordered_map>
+#include <vector>
+
+namespace penumbra::shader {
+
+enum class Stage { vertex, fragment, compute };
+
+std::string_view to_string(Stage stage);
+
+// .vert -> vertex, .frag -> fragment, .comp -> compute; anything else throws penumbra::Error
+// naming the file.
+Stage stage_from_path(const std::filesystem::path& path);
+
+// `#define name value`; an empty value gives `#define name`.
+struct Define {
+  std::string name;
+  std::string value;
+};
+
+struct CompileOptions {
+  // `#include "x"` is looked up in the including file's own directory first (not for the top
+  // level of compile_source, which has no directory), then in these directories, in order.
+  // `#include <x>` is looked up in these directories only.
+  std::vector<std::filesystem::path> include_dirs;
+  // Injected right after #version (via glslang's preamble), before the first line of the file.
+  // A call's extra_defines override defines of the same name given here.
+  std::vector<Define> defines;
+  // Runs glslang's SPIR-V optimizer (when glslang was built with it). Off by default.
+  bool optimize = false;
+};
+
+struct CompiledShader {
+  Stage stage = Stage::compute;
+  std::vector<uint32_t> spirv;
+  // The file path as given to compile_file, or the virtual name given to compile_source.
+  std::string name;
+  // Every file read: the main file first (compile_file only), then the included files in the
+  // order they were first included; weakly_canonical and unique.
+  std::vector<std::filesystem::path> dependencies;
+  // Cache key: 64-bit FNV-1a of the preprocessed source (all includes expanded), the defines,
+  // the stage and the options that change the output.
+  uint64_t key = 0;
+  bool from_cache = false;
+};
+
+// A failed compilation. what() is "file:line: error: message" for the first (real) error,
+// followed by one line per further error. Knock-on summary lines of glslang ("compilation
+// terminated", "N compilation errors") are dropped.
+class CompileError : public penumbra::Error {
+ public:
+  struct Diagnostic {
+    std::filesystem::path file;  // real (weakly_canonical) path, or the virtual name
+    int line = 0;                // 1-based; 0 when glslang gave no location (e.g. link errors)
+    std::string message;
+  };
+
+  CompileError(std::string message, std::vector<Diagnostic> diags);
+
+  // diagnostics()[0] is the real first error; never empty.
+  const std::vector<Diagnostic>& diagnostics() const { return diagnostics_; }
+
+ private:
+  std::vector<Diagnostic> diagnostics_;
+};
+
+// Formats one diagnostic as "file:line: error: message" ("file: error: message" for line 0).
+std::string format_diagnostic(const CompileError::Diagnostic& diagnostic);
+
+// Thread-compatible: one Compiler must not be used by two threads at once, but separate
+// Compilers may be used concurrently. glslang is initialised once per process and never
+// finalized.
+class Compiler {
+ public:
+  explicit Compiler(CompileOptions options = {});
+
+  // Throws CompileError on a GLSL error (including a missing include or an include cycle) and
+  // penumbra::Error when the file cannot be read or its stage cannot be deduced.
+  CompiledShader compile_file(const std::filesystem::path& file, std::optional<Stage> stage = {},
+                              const std::vector<Define>& extra_defines = {});
+  CompiledShader compile_source(std::string_view source, std::string_view virtual_name, Stage stage,
+                                const std::vector<Define>& extra_defines = {});
+
+  const CompileOptions& options() const { return options_; }
+
+  struct Stats {
+    uint64_t compiles = 0;    // full glslang compilations (cache misses), failed ones included
+    uint64_t cache_hits = 0;  // requests answered from the cache
+  };
+  Stats stats() const { return stats_; }
+
+  // Drops the cached SPIR-V; stats are kept.
+  void clear_cache();
+
+ private:
+  CompiledShader compile(const std::string& main_text, const std::string& main_name,
+                         const std::optional<std::filesystem::path>& main_path, Stage stage,
+                         const std::vector<Define>& extra_defines);
+
+  CompileOptions options_;
+  std::unordered_map<uint64_t, std::vector<uint32_t>> cache_;
+  Stats stats_;
+};
+
+}  // namespace penumbra::shader

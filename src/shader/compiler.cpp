@@ -1,0 +1,588 @@
+#include <glslang/Public/ResourceLimits.h>
+#include <glslang/Public/ShaderLang.h>
+#include <glslang/SPIRV/GlslangToSpv.h>
+
+#include <algorithm>
+#include <cctype>
+#include <fstream>
+#include <list>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <penumbra/shader/compiler.hpp>
+#include <sstream>
+#include <system_error>
+#include <utility>
+
+namespace penumbra::shader {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+// ---------------------------------------------------------------------------------------------
+// Small helpers
+
+void init_glslang() {
+  // glslang keeps process-wide state (symbol tables); it is initialised once and deliberately
+  // never finalized, so that Compilers may be created and destroyed at any time.
+  static std::once_flag once;
+  std::call_once(once, [] { glslang::InitializeProcess(); });
+}
+
+EShLanguage to_glslang(Stage stage) {
+  switch (stage) {
+    case Stage::vertex:
+      return EShLangVertex;
+    case Stage::fragment:
+      return EShLangFragment;
+    case Stage::compute:
+      return EShLangCompute;
+  }
+  return EShLangCompute;
+}
+
+class Fnv1a {
+ public:
+  void add(std::string_view bytes) {
+    for (const char c : bytes) {
+      hash_ ^= static_cast<unsigned char>(c);
+      hash_ *= 0x100000001b3ull;
+    }
+  }
+  // Length-prefixed, so that ("ab","c") and ("a","bc") differ.
+  void add_field(std::string_view bytes) {
+    add(std::to_string(bytes.size()));
+    add(":");
+    add(bytes);
+  }
+  uint64_t value() const { return hash_; }
+
+ private:
+  uint64_t hash_ = 0xcbf29ce484222325ull;
+};
+
+std::optional<std::string> read_file(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return std::nullopt;
+  std::ostringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) return std::nullopt;
+  return std::move(ss).str();
+}
+
+fs::path canonical_path(const fs::path& path) {
+  std::error_code ec;
+  fs::path result = fs::weakly_canonical(fs::absolute(path), ec);
+  if (ec) return fs::absolute(path).lexically_normal();
+  return result;
+}
+
+bool is_file(const fs::path& path) {
+  std::error_code ec;
+  return fs::is_regular_file(path, ec);
+}
+
+bool valid_identifier(std::string_view name) {
+  if (name.empty()) return false;
+  if (!(std::isalpha(static_cast<unsigned char>(name[0])) || name[0] == '_')) return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '_';
+  });
+}
+
+std::string rtrim(std::string s) {
+  while (!s.empty() && std::isspace(static_cast<unsigned char>(s.back()))) s.pop_back();
+  return s;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Includer
+
+// Everything one compilation reads, shared by the preprocess pass and the parse pass so that
+// both see the same bytes even if a file changes in between.
+struct SourceSet {
+  std::string main_name;                        // the name glslang knows the main source by
+  std::optional<fs::path> main_path;            // empty for compile_source
+  std::map<std::string, fs::path> real;         // glslang name -> real path (or virtual name)
+  std::map<std::string, std::string> contents;  // canonical path string -> file text
+  std::vector<fs::path> dependencies;           // first-read order, unique
+  std::vector<fs::path> display_roots;          // for short names in messages
+  std::list<std::string> messages;              // messages returned to glslang (stable storage)
+  std::vector<std::string> preamble_lines;      // for errors glslang reports in the preamble
+
+  // Shortest sensible name for a message: relative to the main directory or an include
+  // directory when below it, else the full path.
+  std::string display(const std::string& glslang_name) const {
+    if (glslang_name == main_name) {
+      return main_path ? main_path->filename().generic_string() : main_name;
+    }
+    const fs::path path(glslang_name);
+    for (const fs::path& root : display_roots) {
+      const fs::path rel = path.lexically_relative(root);
+      if (!rel.empty() && *rel.begin() != "..") return rel.generic_string();
+    }
+    return path.generic_string();
+  }
+};
+
+class Includer final : public glslang::TShader::Includer {
+ public:
+  Includer(SourceSet& sources, const std::vector<fs::path>& include_dirs)
+      : sources_(sources), include_dirs_(include_dirs) {}
+
+  IncludeResult* includeLocal(const char* header_name, const char* includer_name,
+                              size_t depth) override {
+    std::vector<fs::path> dirs;
+    if (const auto it = sources_.real.find(includer_name);
+        it != sources_.real.end() && (includer_name != sources_.main_name || sources_.main_path)) {
+      dirs.push_back(it->second.parent_path());
+    }
+    dirs.insert(dirs.end(), include_dirs_.begin(), include_dirs_.end());
+    IncludeResult* result = resolve(header_name, includer_name, depth, dirs);
+    if (result == nullptr || result->headerName.empty()) {
+      // glslang calls includeSystem next for the same directive: hand the error over there
+      // (an error result returned here would be discarded).
+      if (result != nullptr) {
+        pending_ = Pending{header_name, includer_name, depth,
+                           std::string(result->headerData, result->headerLength)};
+        delete result;
+      }
+      return nullptr;
+    }
+    return result;
+  }
+
+  IncludeResult* includeSystem(const char* header_name, const char* includer_name,
+                               size_t depth) override {
+    if (pending_ && pending_->header == header_name && pending_->includer == includer_name &&
+        pending_->depth == depth) {
+      const std::string message = std::move(pending_->message);
+      pending_.reset();
+      return error_result(message);
+    }
+    pending_.reset();
+    IncludeResult* result = resolve(header_name, includer_name, depth, include_dirs_);
+    return result;
+  }
+
+  void releaseInclude(IncludeResult* result) override { delete result; }
+
+ private:
+  struct Pending {
+    std::string header;
+    std::string includer;
+    size_t depth = 0;
+    std::string message;
+  };
+
+  IncludeResult* error_result(std::string message) {
+    const std::string& stored = sources_.messages.emplace_back(std::move(message));
+    return new IncludeResult("", stored.data(), stored.size(), nullptr);
+  }
+
+  // The include stack: stack_[0] is the main source, stack_[d] the file included at depth d.
+  // glslang releases an include only when it is done with it, but the depth it passes is the
+  // reliable signal, so the stack is cut back to the includer's depth on every request.
+  void sync_stack(const std::string& includer_name, size_t depth) {
+    if (stack_.empty()) stack_.push_back(sources_.main_name);
+    if (depth == 0) depth = 1;
+    if (stack_.size() > depth) stack_.resize(depth);
+    while (stack_.size() < depth) stack_.push_back(includer_name);
+    stack_.back() = includer_name;
+  }
+
+  IncludeResult* resolve(const std::string& header, const std::string& includer_name, size_t depth,
+                         const std::vector<fs::path>& dirs) {
+    sync_stack(includer_name, depth);
+    for (const fs::path& dir : dirs) {
+      const fs::path candidate = dir / header;
+      if (!is_file(candidate)) continue;
+      const fs::path path = canonical_path(candidate);
+      const std::string name = path.string();
+
+      if (const auto it = std::find(stack_.begin(), stack_.end(), name); it != stack_.end()) {
+        std::string message = "include cycle: ";
+        for (auto jt = it; jt != stack_.end(); ++jt) message += sources_.display(*jt) + " -> ";
+        message += sources_.display(name);
+        return error_result(std::move(message));
+      }
+
+      auto content = sources_.contents.find(name);
+      if (content == sources_.contents.end()) {
+        std::optional<std::string> text = read_file(path);
+        if (!text) return error_result("cannot read include \"" + header + "\" (" + name + ")");
+        content = sources_.contents.emplace(name, std::move(*text)).first;
+        sources_.dependencies.push_back(path);
+      }
+      sources_.real.emplace(name, path);
+      stack_.push_back(name);
+      return new IncludeResult(name, content->second.data(), content->second.size(), nullptr);
+    }
+
+    std::string message = "cannot find include \"" + header + "\" (searched: ";
+    if (dirs.empty()) message += "no include directories";
+    for (size_t i = 0; i < dirs.size(); ++i) {
+      if (i > 0) message += ", ";
+      message += dirs[i].generic_string();
+    }
+    message += ")";
+    return error_result(std::move(message));
+  }
+
+  SourceSet& sources_;
+  const std::vector<fs::path>& include_dirs_;
+  std::vector<std::string> stack_;
+  std::optional<Pending> pending_;
+};
+
+// ---------------------------------------------------------------------------------------------
+// Info-log parsing
+
+// glslang's summary lines, which follow the real errors: "N compilation errors.  No code
+// generated." (no location) and "<loc>: '' : compilation terminated".
+bool is_summary_line(std::string_view text) {
+  size_t digits = 0;
+  while (digits < text.size() && std::isdigit(static_cast<unsigned char>(text[digits]))) ++digits;
+  return digits > 0 && text.substr(digits).starts_with(" compilation errors.");
+}
+
+bool is_knock_on(std::string_view message) {
+  return message == "compilation terminated";
+}
+
+// Splits "name:line: rest" where name is one of the known names (longest match first, names may
+// contain ':'), falling back to the first ":<digits>:" in the line.
+bool split_location(const std::string& text, const SourceSet& sources, std::string& name, int& line,
+                    std::string& rest) {
+  auto try_name = [&](const std::string& candidate) {
+    if (text.size() <= candidate.size() + 1 || text.compare(0, candidate.size(), candidate) != 0 ||
+        text[candidate.size()] != ':') {
+      return false;
+    }
+    size_t pos = candidate.size() + 1;
+    const size_t digits_begin = pos;
+    while (pos < text.size() && std::isdigit(static_cast<unsigned char>(text[pos]))) ++pos;
+    if (pos == digits_begin || pos - digits_begin > 9 || pos >= text.size() || text[pos] != ':') {
+      return false;
+    }
+    name = candidate;
+    line = std::stoi(text.substr(digits_begin, pos - digits_begin));
+    rest = text.substr(pos + 1);
+    return true;
+  };
+  std::vector<std::string> names;
+  for (const auto& [known, path] : sources.real) names.push_back(known);
+  std::sort(names.begin(), names.end(),
+            [](const std::string& a, const std::string& b) { return a.size() > b.size(); });
+  for (const std::string& candidate : names) {
+    if (try_name(candidate)) return true;
+  }
+  // Unknown name (e.g. an unnamed string "0"): "<anything>:<digits>: rest".
+  for (size_t colon = text.find(':'); colon != std::string::npos;
+       colon = text.find(':', colon + 1)) {
+    if (try_name(text.substr(0, colon))) return true;
+  }
+  return false;
+}
+
+std::string clean_message(std::string message) {
+  message = rtrim(std::move(message));
+  while (!message.empty() && message.front() == ' ') message.erase(message.begin());
+  // Errors handed to glslang by the includer come back as
+  //   '#include' : <our message> for header name: <header>
+  constexpr std::string_view include_prefix = "'#include' : ";
+  if (message.starts_with(include_prefix)) {
+    const size_t suffix = message.rfind(" for header name: ");
+    if (suffix != std::string::npos && suffix >= include_prefix.size()) {
+      return message.substr(include_prefix.size(), suffix - include_prefix.size());
+    }
+  }
+  // Messages without a token ("'' :  syntax error, ...") lose the empty token.
+  constexpr std::string_view empty_token = "'' : ";
+  if (message.starts_with(empty_token)) {
+    message.erase(0, empty_token.size());
+    while (!message.empty() && message.front() == ' ') message.erase(message.begin());
+  }
+  return message;
+}
+
+std::vector<CompileError::Diagnostic> parse_info_log(const std::string& log,
+                                                     const SourceSet& sources) {
+  std::vector<CompileError::Diagnostic> diags;
+  std::istringstream in(log);
+  std::string raw;
+  bool last_was_error = false;
+  while (std::getline(in, raw)) {
+    std::string text = rtrim(raw);
+    if (text.empty()) continue;
+    constexpr std::string_view error_tag = "ERROR: ";
+    constexpr std::string_view warning_tag = "WARNING: ";
+    if (text.starts_with(warning_tag)) {
+      last_was_error = false;
+      continue;
+    }
+    if (!text.starts_with(error_tag)) {
+      // Continuation of the previous error (glslang rarely splits a message over lines).
+      if (last_was_error && !diags.empty()) diags.back().message += " " + clean_message(text);
+      continue;
+    }
+    text.erase(0, error_tag.size());
+    last_was_error = false;
+    if (is_summary_line(text)) continue;
+
+    CompileError::Diagnostic diag;
+    std::string name;
+    std::string rest;
+    if (split_location(text, sources, name, diag.line, rest)) {
+      diag.message = clean_message(rest);
+      if (is_knock_on(diag.message)) continue;
+      if (const auto it = sources.real.find(name); it != sources.real.end()) {
+        diag.file = it->second;
+      } else if (name == "-1") {
+        // glslang names the preamble (our injected lines) string -1.
+        diag.file = sources.real.at(sources.main_name);
+        const size_t index = static_cast<size_t>(std::max(diag.line, 1) - 1);
+        if (index < sources.preamble_lines.size()) {
+          diag.message = "in injected `" + sources.preamble_lines[index] + "`: " + diag.message;
+        } else {
+          diag.message = "in the injected defines: " + diag.message;
+        }
+        diag.line = 0;
+      } else {
+        diag.file = fs::path(name);
+      }
+    } else {
+      diag.file = sources.real.at(sources.main_name);
+      diag.line = 0;
+      diag.message = clean_message(text);
+    }
+    diags.push_back(std::move(diag));
+    last_was_error = true;
+  }
+  return diags;
+}
+
+[[noreturn]] void throw_compile_error(const std::string& log, const SourceSet& sources,
+                                      std::string_view what_failed) {
+  std::vector<CompileError::Diagnostic> diags = parse_info_log(log, sources);
+  if (diags.empty()) {
+    // Nothing parseable (should not happen): keep glslang's raw text.
+    std::string message = std::string(what_failed) + " failed";
+    if (!rtrim(log).empty()) message += ": " + rtrim(log);
+    diags.push_back({sources.real.at(sources.main_name), 0, std::move(message)});
+  }
+  std::string message;
+  for (const auto& diag : diags) {
+    if (!message.empty()) message += '\n';
+    message += format_diagnostic(diag);
+  }
+  throw CompileError(std::move(message), std::move(diags));
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct ShaderSetup {
+  glslang::TShader shader;
+  const char* text;
+  int length;
+  const char* name;
+
+  ShaderSetup(EShLanguage language, const std::string& source, const std::string& source_name,
+              const std::string& preamble)
+      : shader(language),
+        text(source.c_str()),
+        length(static_cast<int>(source.size())),
+        name(source_name.c_str()) {
+    shader.setStringsWithLengthsAndNames(&text, &length, &name, 1);
+    shader.setPreamble(preamble.c_str());
+    shader.setEntryPoint("main");
+    shader.setEnvInput(glslang::EShSourceGlsl, language, glslang::EShClientVulkan, 100);
+    shader.setEnvClient(glslang::EShClientVulkan, glslang::EShTargetVulkan_1_2);
+    shader.setEnvTarget(glslang::EShTargetSpv, glslang::EShTargetSpv_1_5);
+  }
+};
+
+constexpr int kDefaultVersion = 460;
+constexpr EShMessages kMessages = static_cast<EShMessages>(EShMsgSpvRules | EShMsgVulkanRules);
+
+}  // namespace
+
+// -----------------------------------------------------------------------------------------------
+
+std::string_view to_string(Stage stage) {
+  switch (stage) {
+    case Stage::vertex:
+      return "vertex";
+    case Stage::fragment:
+      return "fragment";
+    case Stage::compute:
+      return "compute";
+  }
+  return "unknown";
+}
+
+Stage stage_from_path(const fs::path& path) {
+  const std::string ext = path.extension().string();
+  if (ext == ".vert") return Stage::vertex;
+  if (ext == ".frag") return Stage::fragment;
+  if (ext == ".comp") return Stage::compute;
+  throw Error("cannot deduce the shader stage of '" + path.string() +
+              "': expected the extension .vert, .frag or .comp");
+}
+
+CompileError::CompileError(std::string message, std::vector<Diagnostic> diags)
+    : Error(message), diagnostics_(std::move(diags)) {
+  if (diagnostics_.empty()) diagnostics_.push_back({fs::path(), 0, std::move(message)});
+}
+
+std::string format_diagnostic(const CompileError::Diagnostic& diagnostic) {
+  std::string out = diagnostic.file.string();
+  if (diagnostic.line > 0) out += ":" + std::to_string(diagnostic.line);
+  out += ": error: " + diagnostic.message;
+  return out;
+}
+
+Compiler::Compiler(CompileOptions options) : options_(std::move(options)) {
+  init_glslang();
+}
+
+void Compiler::clear_cache() {
+  cache_.clear();
+}
+
+CompiledShader Compiler::compile_file(const fs::path& file, std::optional<Stage> stage,
+                                      const std::vector<Define>& extra_defines) {
+  const Stage actual_stage = stage ? *stage : stage_from_path(file);
+  const fs::path path = canonical_path(file);
+  std::optional<std::string> text = is_file(path) ? read_file(path) : std::nullopt;
+  if (!text) throw Error("cannot read shader file '" + file.string() + "'");
+  CompiledShader result = compile(*text, path.string(), path, actual_stage, extra_defines);
+  result.name = file.string();
+  return result;
+}
+
+CompiledShader Compiler::compile_source(std::string_view source, std::string_view virtual_name,
+                                        Stage stage, const std::vector<Define>& extra_defines) {
+  CompiledShader result =
+      compile(std::string(source), std::string(virtual_name), std::nullopt, stage, extra_defines);
+  result.name = std::string(virtual_name);
+  return result;
+}
+
+CompiledShader Compiler::compile(const std::string& main_text, const std::string& main_name,
+                                 const std::optional<fs::path>& main_path, Stage stage,
+                                 const std::vector<Define>& extra_defines) {
+  init_glslang();
+  const EShLanguage language = to_glslang(stage);
+
+  SourceSet sources;
+  sources.main_name = main_name;
+  sources.main_path = main_path;
+  sources.real.emplace(main_name, main_path ? *main_path : fs::path(main_name));
+  if (main_path) {
+    sources.dependencies.push_back(*main_path);
+    sources.display_roots.push_back(main_path->parent_path());
+  }
+  std::vector<fs::path> include_dirs;
+  for (const fs::path& dir : options_.include_dirs) {
+    include_dirs.push_back(canonical_path(dir));
+    sources.display_roots.push_back(include_dirs.back());
+  }
+
+  // Later defines win: the call's extra defines override the options' ones of the same name.
+  std::vector<Define> defines;
+  for (const std::vector<Define>* list : {&std::as_const(options_.defines), &extra_defines}) {
+    for (const Define& define : *list) {
+      if (!valid_identifier(define.name)) {
+        throw Error("invalid define name '" + define.name + "' for shader '" + main_name + "'");
+      }
+      if (define.value.find_first_of("\r\n") != std::string::npos || define.value.ends_with('\\')) {
+        throw Error("define '" + define.name + "' for shader '" + main_name +
+                    "' has a value with a line break or a trailing backslash");
+      }
+      const auto same = std::find_if(defines.begin(), defines.end(),
+                                     [&](const Define& d) { return d.name == define.name; });
+      if (same != defines.end()) {
+        same->value = define.value;
+      } else {
+        defines.push_back(define);
+      }
+    }
+  }
+
+  // The preamble goes after #version: it enables #include and holds the defines.
+  sources.preamble_lines.push_back("#extension GL_GOOGLE_include_directive : enable");
+  std::string define_text;
+  for (const Define& define : defines) {
+    std::string line = "#define " + define.name;
+    if (!define.value.empty()) line += " " + define.value;
+    define_text += line + "\n";
+    sources.preamble_lines.push_back(std::move(line));
+  }
+  std::string preamble;
+  for (const std::string& line : sources.preamble_lines) preamble += line + "\n";
+
+  // Pass 1: preprocess (expands includes, reads every dependency) to get the cache key.
+  std::string preprocessed;
+  {
+    ShaderSetup setup(language, main_text, main_name, preamble);
+    Includer includer(sources, include_dirs);
+    if (!setup.shader.preprocess(GetDefaultResources(), kDefaultVersion, ENoProfile, false, false,
+                                 kMessages, &preprocessed, includer)) {
+      throw_compile_error(setup.shader.getInfoLog(), sources, "preprocessing");
+    }
+  }
+
+  Fnv1a hash;
+  hash.add_field("penumbra-shader-v1 vulkan1.2 spv1.5");
+  hash.add_field(to_string(stage));
+  hash.add_field(options_.optimize ? "opt" : "noopt");
+  hash.add_field(define_text);
+  hash.add_field(preprocessed);
+
+  CompiledShader result;
+  result.stage = stage;
+  result.name = main_name;
+  result.dependencies = sources.dependencies;
+  result.key = hash.value();
+
+  if (const auto it = cache_.find(result.key); it != cache_.end()) {
+    ++stats_.cache_hits;
+    result.spirv = it->second;
+    result.from_cache = true;
+    return result;
+  }
+
+  // Pass 2: the real compile, from the original sources (served from `sources`, not re-read),
+  // so that every diagnostic carries its own file and line.
+  ++stats_.compiles;
+  ShaderSetup setup(language, main_text, main_name, preamble);
+  Includer includer(sources, include_dirs);
+  if (!setup.shader.parse(GetDefaultResources(), kDefaultVersion, false, kMessages, includer)) {
+    throw_compile_error(setup.shader.getInfoLog(), sources, "compilation");
+  }
+  glslang::TProgram program;
+  program.addShader(&setup.shader);
+  if (!program.link(kMessages)) {
+    throw_compile_error(program.getInfoLog(), sources, "linking");
+  }
+
+  glslang::SpvOptions spv_options;
+  spv_options.generateDebugInfo = false;
+  spv_options.disableOptimizer = !options_.optimize;
+  spv_options.optimizeSize = false;
+  spv::SpvBuildLogger logger;
+  glslang::GlslangToSpv(*program.getIntermediate(language), result.spirv, &logger, &spv_options);
+  const std::string spv_messages = logger.getAllMessages();
+  if (result.spirv.empty() || spv_messages.find("error:") != std::string::npos) {
+    std::vector<CompileError::Diagnostic> diags{
+        {sources.real.at(main_name), 0, "SPIR-V generation failed: " + rtrim(spv_messages)}};
+    throw CompileError(format_diagnostic(diags[0]), std::move(diags));
+  }
+
+  cache_.emplace(result.key, result.spirv);
+  return result;
+}
+
+}  // namespace penumbra::shader

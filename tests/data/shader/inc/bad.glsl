@@ -1,0 +1,5 @@
+// A deliberately broken helper.
+
+float bad() {
+  return 2.0 * missing_symbol;
+}

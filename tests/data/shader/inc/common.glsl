@@ -1,0 +1,4 @@
+#ifndef COMMON_GLSL
+#define COMMON_GLSL
+float common_value() { return 0.5; }
+#endif

@@ -1,0 +1,3 @@
+// b includes a: a cycle
+#include "cycle_a.glsl"
+float cycle_b() { return 2.0; }
