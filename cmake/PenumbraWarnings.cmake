@@ -23,8 +23,14 @@ function(penumbra_add_test name)
   target_compile_definitions(${name} PRIVATE
     PENUMBRA_SHADER_DIR="${PENUMBRA_SHADER_DIR}"
     PENUMBRA_TEST_DATA_DIR="${CMAKE_SOURCE_DIR}/tests/data")
-  gtest_discover_tests(${name}
-    PROPERTIES LABELS "${T_LABELS}"
-               ENVIRONMENT "MESA_SHADER_CACHE_DIR=${PENUMBRA_MESA_CACHE_DIR};PENUMBRA_VALIDATION=1"
-    DISCOVERY_TIMEOUT 60)
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
+  # gtest_discover_tests(PROPERTIES ...) flattens list values (two labels, two environment
+  # variables), so the properties are applied by a script that runs after discovery.
+  set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
+  file(WRITE "${script}"
+    "foreach(t IN LISTS ${name}_TESTS)\n"
+    "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${T_LABELS}\"\n"
+    "    ENVIRONMENT \"MESA_SHADER_CACHE_DIR=${PENUMBRA_MESA_CACHE_DIR};PENUMBRA_VALIDATION=1\")\n"
+    "endforeach()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
 endfunction()

@@ -1,0 +1,108 @@
+#pragma once
+
+// GPU structs of the shadow system, declared once here and mirrored member for member in
+// shaders/penumbra/shadow_types.glsl. Only mat4 / vec4 / uvec4 members (and arrays of them or
+// of 16-byte-multiple structs), so the std140 and std430 layouts are identical and equal to the
+// C++ layout below; tests/shadow/gpu_layout_tests.cpp checks every offset and size against
+// SPIR-V reflection of the GLSL block in both layouts.
+//
+// All matrices are column-major and take positions *relative to the render origin* passed to
+// the pack functions (pack.hpp): clip = view_proj * vec4(p_world - render_origin, 1). With
+// camera-relative rendering (render origin = the camera, or any point near it) the float data
+// stays precise kilometres from the world origin.
+
+#include <cstddef>
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <penumbra/shadow/types.hpp>
+
+namespace penumbra::shadow {
+
+// One cascade or clipmap level.
+struct alignas(16) CascadeGpu {
+  glm::mat4 view_proj;  // (world - render_origin) -> clip; uv = ndc.xy * 0.5 + 0.5
+  // x: world size of one texel (normal-offset bias, PCSS filter size in texels)
+  // y, z: the depth range [near, far] as distances along the light's travel direction,
+  //       measured from the render origin: with s = dot(-light_dir_angular.xyz, p_rel),
+  //       standard depth = (s - y) / (z - y), reverse-Z depth = (z - s) / (z - y); a depth
+  //       difference times (z - y) is a world distance
+  // w: world width of the cascade (resolution * x)
+  glm::vec4 params;
+};
+
+// Directional light: cascades or clipmap levels plus everything the resolve needs.
+struct alignas(16) ShadowGpu {
+  CascadeGpu cascades[kMaxCascades];  // [0, counts.x) valid
+  // Cascades (counts.w == 0): splits[i / 4][i % 4] = far view distance of cascade i (the
+  // view distance is dot(p - camera_position.xyz, camera_forward.xyz)); unused entries repeat
+  // the last. Clipmap (counts.w == 1): the light-space radius around the camera that level i
+  // is guaranteed to cover.
+  glm::vec4 splits[kMaxCascades / 4];
+  // xyz: unit direction *towards* the light (= -travel direction); w: angular diameter (rad).
+  glm::vec4 light_dir_angular;
+  // x: tan(angular diameter / 2) (penumbra width = 2 x * (d_receiver - d_blocker))
+  // y: blocker search half-width in texels; z: min filter radius in texels; w: max filter
+  // radius in texels.
+  glm::vec4 pcss;
+  // x: camera near (first split); y: blend fraction; z: max shadow distance; w: fade fraction
+  // (shadows fade to lit over [z * (1 - w), z]).
+  glm::vec4 selection;
+  glm::vec4 camera_position;  // xyz relative to the render origin, w = 1
+  glm::vec4 camera_forward;   // xyz unit, w = 0
+  // x: cascade/level count; y: DepthConvention (0 standard, 1 reverse-Z); z: resolution;
+  // w: ShadowLayout (0 cascades by view distance, 1 clipmap by position).
+  glm::uvec4 counts;
+};
+
+struct alignas(16) SpotShadowGpu {
+  glm::mat4 view_proj;      // (world - render_origin) -> clip, perspective
+  glm::vec4 position_near;  // xyz relative to the render origin; w: near plane
+  glm::vec4 direction_far;  // xyz unit direction of the cone axis; w: far plane (range)
+  // x: cos(outer angle); y: tan(outer angle) (= NDC 1); z: world texel size at distance 1
+  // (2 tan / resolution); w: unused (0)
+  glm::vec4 params;
+  // x: resolution; y: DepthConvention; z, w: 0
+  glm::uvec4 info;
+};
+
+struct alignas(16) PointShadowGpu {
+  glm::mat4 face_view_proj[6];  // Vulkan cube face order +X, -X, +Y, -Y, +Z, -Z
+  glm::vec4 position;           // xyz relative to the render origin, w = 1
+  // x: depth_near, y: depth_far, z: 1 / (depth_far - depth_near), w: clip near. Stored depth
+  // t = clamp((length(p - position.xyz) - x) * z, 0, 1), 1 - t under reverse-Z.
+  glm::vec4 depth_range;
+  // x: face mask; y: DepthConvention; z: resolution; w: 0
+  glm::uvec4 info;
+};
+
+static_assert(sizeof(glm::mat4) == 64 && sizeof(glm::vec4) == 16 && sizeof(glm::uvec4) == 16);
+
+static_assert(offsetof(CascadeGpu, view_proj) == 0);
+static_assert(offsetof(CascadeGpu, params) == 64);
+static_assert(sizeof(CascadeGpu) == 80);
+static_assert(alignof(CascadeGpu) == 16);
+
+static_assert(offsetof(ShadowGpu, cascades) == 0);
+static_assert(offsetof(ShadowGpu, splits) == 640);
+static_assert(offsetof(ShadowGpu, light_dir_angular) == 672);
+static_assert(offsetof(ShadowGpu, pcss) == 688);
+static_assert(offsetof(ShadowGpu, selection) == 704);
+static_assert(offsetof(ShadowGpu, camera_position) == 720);
+static_assert(offsetof(ShadowGpu, camera_forward) == 736);
+static_assert(offsetof(ShadowGpu, counts) == 752);
+static_assert(sizeof(ShadowGpu) == 768);
+
+static_assert(offsetof(SpotShadowGpu, view_proj) == 0);
+static_assert(offsetof(SpotShadowGpu, position_near) == 64);
+static_assert(offsetof(SpotShadowGpu, direction_far) == 80);
+static_assert(offsetof(SpotShadowGpu, params) == 96);
+static_assert(offsetof(SpotShadowGpu, info) == 112);
+static_assert(sizeof(SpotShadowGpu) == 128);
+
+static_assert(offsetof(PointShadowGpu, face_view_proj) == 0);
+static_assert(offsetof(PointShadowGpu, position) == 384);
+static_assert(offsetof(PointShadowGpu, depth_range) == 400);
+static_assert(offsetof(PointShadowGpu, info) == 416);
+static_assert(sizeof(PointShadowGpu) == 432);
+
+}  // namespace penumbra::shadow

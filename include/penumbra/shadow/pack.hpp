@@ -1,0 +1,25 @@
+#pragma once
+
+// Double-precision results -> the float GPU structs of gpu_types.hpp.
+//
+// render_origin: the point the renderer subtracts from world positions before they reach the
+// GPU (camera-relative rendering). Every matrix is rebased in double (view_proj * T(origin))
+// and only then rounded to float, so a shadow lookup 10 km from the world origin keeps ~1e-4
+// texel precision when the origin is near the camera. Pass the zero vector for absolute world
+// coordinates (fine near the origin; at 10 km float positions alone are ~1 mm apart).
+
+#include <glm/glm.hpp>
+#include <penumbra/shadow/cascades.hpp>
+#include <penumbra/shadow/gpu_types.hpp>
+#include <penumbra/shadow/local_lights.hpp>
+
+namespace penumbra::shadow {
+
+// clip = m * (p_world, 1) rewritten as clip = result * (p_world - origin, 1), in double.
+glm::dmat4 rebase(const glm::dmat4& m, const glm::dvec3& origin);
+
+ShadowGpu pack_shadow(const CascadeSet& set, const glm::dvec3& render_origin);
+SpotShadowGpu pack_spot_shadow(const SpotShadow& shadow, const glm::dvec3& render_origin);
+PointShadowGpu pack_point_shadow(const PointShadow& shadow, const glm::dvec3& render_origin);
+
+}  // namespace penumbra::shadow

@@ -1,0 +1,53 @@
+// Shadow GPU structs, mirrored member for member from include/penumbra/shadow/gpu_types.hpp
+// (the C++ header is the source of truth and documents every field). Only mat4 / vec4 / uvec4
+// members and arrays of them or of 16-byte-multiple structs: the std140 and std430 layouts are
+// identical and equal to the C++ layout (tests/shadow/gpu_layout_tests.cpp checks both against
+// SPIR-V reflection). No #version here: include it from a file that has one.
+//
+// Conventions (docs/cascades.md): matrices take positions relative to the render origin;
+// shadow-map uv = ndc.xy * 0.5 + 0.5 (no flip); counts.y / info.y is the depth convention
+// (0 standard, 1 reverse-Z: near -> 1, far -> 0); point lights store linear distance
+// t = clamp((length(p - position.xyz) - depth_range.x) * depth_range.z, 0, 1), 1 - t under
+// reverse-Z, in Vulkan cube face order +X, -X, +Y, -Y, +Z, -Z.
+
+#ifndef PENUMBRA_SHADOW_TYPES_GLSL
+#define PENUMBRA_SHADOW_TYPES_GLSL
+
+#define PENUMBRA_MAX_CASCADES 8
+#define PENUMBRA_SHADOW_LAYOUT_CASCADES 0u
+#define PENUMBRA_SHADOW_LAYOUT_CLIPMAP 1u
+#define PENUMBRA_DEPTH_STANDARD 0u
+#define PENUMBRA_DEPTH_REVERSE_Z 1u
+
+struct CascadeGpu {
+  mat4 view_proj;  // (world - render_origin) -> clip
+  vec4 params;     // x texel world size, y depth near, z depth far (along the light), w width
+};
+
+struct ShadowGpu {
+  CascadeGpu cascades[PENUMBRA_MAX_CASCADES];
+  vec4 splits[PENUMBRA_MAX_CASCADES / 4];  // far view distance of cascade i at [i / 4][i % 4]
+  vec4 light_dir_angular;                  // xyz towards the light, w angular diameter (rad)
+  vec4 pcss;       // x tan(angular / 2), y blocker search texels, z min filter, w max filter
+  vec4 selection;  // x camera near, y blend fraction, z max distance, w fade fraction
+  vec4 camera_position;  // xyz relative to the render origin
+  vec4 camera_forward;   // xyz unit
+  uvec4 counts;    // x count, y depth convention, z resolution, w layout
+};
+
+struct SpotShadowGpu {
+  mat4 view_proj;
+  vec4 position_near;  // xyz relative to the render origin, w near
+  vec4 direction_far;  // xyz unit axis, w far
+  vec4 params;         // x cos(outer), y tan(outer), z texel world size at distance 1
+  uvec4 info;          // x resolution, y depth convention
+};
+
+struct PointShadowGpu {
+  mat4 face_view_proj[6];  // +X, -X, +Y, -Y, +Z, -Z
+  vec4 position;           // xyz relative to the render origin
+  vec4 depth_range;        // x near, y far, z 1 / (far - near), w clip near
+  uvec4 info;              // x face mask, y depth convention, z resolution
+};
+
+#endif  // PENUMBRA_SHADOW_TYPES_GLSL

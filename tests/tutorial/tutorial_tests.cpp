@@ -1,0 +1,85 @@
+// The complete example of docs/testing-shaders.md. It is built and run with every test run, so
+// the tutorial cannot drift from the harness.
+#include <gtest/gtest.h>
+#include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/property.hpp>
+#include <penumbra/testing/shader_function.hpp>
+
+#include <algorithm>
+#include <cmath>
+
+// 1. Describe a GLSL struct once: C++ type, GLSL name, fields in GLSL declaration order.
+struct SpotLight {
+  glm::vec3 position;
+  float cos_outer;
+  glm::vec3 direction;
+  float cos_inner;
+};
+PENUMBRA_GLSL_STRUCT(SpotLight, "SpotLight", position, cos_outer, direction, cos_inner);
+
+namespace {
+
+using namespace penumbra::testing;
+
+// 2. Where the GLSL lives. Your own project would pass its shader directory here (or set
+//    PENUMBRA_SHADER_PATH).
+FunctionOptions tutorial_options() {
+  FunctionOptions o;
+  o.include_dirs = {PENUMBRA_TUTORIAL_DIR};
+  return o;
+}
+
+// 3. Derive from GpuTest: any Vulkan validation message fails the test.
+class TutorialTest : public GpuTest {};
+
+// 4. A property test: 10 000 seeded random cases in one dispatch against a C++ reference.
+TEST_F(TutorialTest, WrappedLambertMatchesReference) {
+  ShaderFunction<float(glm::vec3, glm::vec3, float)> lambert("my_shading.glsl", "wrapped_lambert",
+                                                             tutorial_options());
+  auto reference = [](glm::vec3 n, glm::vec3 l, float wrap) {
+    const double d = double(n.x) * l.x + double(n.y) * l.y + double(n.z) * l.z;
+    return float(std::max((d + wrap) / (1.0 + wrap), 0.0));
+  };
+  // dot() may be fused and reassociated; the division is within 2.5 ULP (Vulkan spec,
+  // Appendix A): 4 ULP plus an absolute floor near 0, where the max() clamps, is the bound.
+  PENUMBRA_EXPECT_PROPERTY(check_property(
+      "wrapped_lambert", [&](const auto& cases) { return lambert.run(cases); }, reference,
+      Tolerance::ulps(4, 1e-6), {.cases = 10000}, unit_vector3(), unit_vector3(),
+      uniform(0.0f, 1.0f)));
+}
+
+// 5. Structs in, out-parameters back.
+TEST_F(TutorialTest, SpotConeReturnsAttenuationAndVector) {
+  ShaderFunction<float(SpotLight, glm::vec3, Out<glm::vec3>)> cone("my_shading.glsl", "spot_cone",
+                                                                   tutorial_options());
+  const SpotLight light{glm::vec3(0, 10, 0), std::cos(0.5f), glm::vec3(0, -1, 0), std::cos(0.3f)};
+  const auto [on_axis, to_light] = cone(light, glm::vec3(0, 0, 0));
+  EXPECT_EQ(on_axis, 1.0f);
+  EXPECT_EQ(to_light, glm::vec3(0, 10, 0));
+  const auto [outside, unused] = cone(light, glm::vec3(100, 0, 0));
+  EXPECT_EQ(outside, 0.0f);
+}
+
+// 6. Resources: a depth map from a host array, sampled through a compare sampler.
+TEST_F(TutorialTest, ShadowTapAgainstCompareThenFilter) {
+  const std::vector<float> depth = {0.2f, 0.8f,   // row 0
+                                    0.2f, 0.8f};  // row 1
+  DepthTextureDesc desc;
+  desc.width = 2;
+  desc.height = 2;
+  desc.sampler.filter = VK_FILTER_LINEAR;
+  desc.sampler.compare_op = VK_COMPARE_OP_LESS_OR_EQUAL;  // lit when receiver <= stored
+  ShaderFunction<float(Sampler2DShadow, glm::vec2, float)> tap("my_shading.glsl", "shadow_tap",
+                                                               tutorial_options());
+  tap.bind(0, make_depth_texture(desc, depth));
+  // At u = 0.5 the bilinear footprint is half on each column: receiver 0.5 is lit only by the
+  // right column (0.8), so the filtered result is 0.5 — up to the weight quantisation the
+  // Vulkan spec allows (subTexelPrecisionBits).
+  const double bits = ctx().info().limits.subTexelPrecisionBits;
+  EXPECT_NEAR(tap(glm::vec2(0.5f, 0.5f), 0.5f), 0.5, 2.0 * std::ldexp(1.0, -int(bits)));
+  EXPECT_EQ(tap(glm::vec2(0.5f, 0.5f), 0.1f), 1.0f);  // in front of everything: lit
+  EXPECT_EQ(tap(glm::vec2(0.5f, 0.5f), 0.9f), 0.0f);  // behind everything: shadowed
+}
+
+}  // namespace
