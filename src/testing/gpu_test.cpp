@@ -1,8 +1,10 @@
-#include <penumbra/testing/gpu_test.hpp>
-
 #include <cstdio>
+#include <cstdlib>
 #include <memory>
 #include <mutex>
+#include <penumbra/testing/gpu_test.hpp>
+#include <string>
+#include <vector>
 
 namespace penumbra::testing {
 namespace {
@@ -11,6 +13,10 @@ std::unique_ptr<gpu::Context>& context_slot() {
   static std::unique_ptr<gpu::Context> ctx;
   return ctx;
 }
+std::vector<std::function<void()>>& teardown_callbacks() {
+  static std::vector<std::function<void()>> callbacks;
+  return callbacks;
+}
 std::mutex& context_mutex() {
   static std::mutex m;
   return m;
@@ -18,12 +24,19 @@ std::mutex& context_mutex() {
 
 }  // namespace
 
+void before_shared_context_destroyed(std::function<void()> callback) {
+  teardown_callbacks().push_back(std::move(callback));
+}
+
 gpu::Context& shared_context() {
   std::lock_guard lock(context_mutex());
   auto& slot = context_slot();
   if (!slot) {
     gpu::ContextOptions options;
-    options.validation = true;
+    // Always on, except when PENUMBRA_VALIDATION=0 is set explicitly (benchmarks measuring
+    // without the layer's overhead). CTest sets PENUMBRA_VALIDATION=1 for every test.
+    const char* env = std::getenv("PENUMBRA_VALIDATION");
+    options.validation = !(env != nullptr && std::string(env) == "0");
     slot = std::make_unique<gpu::Context>(options);
     std::fprintf(stderr, "%s", slot->report().c_str());
   }
@@ -37,6 +50,8 @@ size_t fail_on_validation_messages(gpu::Context& ctx) {
 }
 
 void GpuEnvironment::TearDown() {
+  for (auto& callback : teardown_callbacks()) callback();
+  teardown_callbacks().clear();
   std::lock_guard lock(context_mutex());
   auto& slot = context_slot();
   if (!slot) return;

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+
 #include <penumbra/testing/gpu_test.hpp>
 
 // main() for Penumbra test binaries: registers the environment that owns the shared GPU context.

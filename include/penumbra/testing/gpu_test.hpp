@@ -1,13 +1,20 @@
 #pragma once
 
 #include <gtest/gtest.h>
+
+#include <functional>
 #include <penumbra/gpu/context.hpp>
 
 namespace penumbra::testing {
 
 // The one Vulkan context of a test process, created on first use with the Khronos validation
-// layer on (always, whatever PENUMBRA_VALIDATION says) and the device PENUMBRA_DEVICE picks.
+// layer on (unless PENUMBRA_VALIDATION=0 is set explicitly, for benchmarks) and the device
+// PENUMBRA_DEVICE picks.
 gpu::Context& shared_context();
+
+// Registers a callback run before the shared context is destroyed (to release cached GPU
+// objects that belong to its device).
+void before_shared_context_destroyed(std::function<void()> callback);
 
 // Takes every validation message collected so far and reports each as a gtest failure.
 // Returns how many there were.

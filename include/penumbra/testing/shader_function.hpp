@@ -1,0 +1,330 @@
+#pragma once
+
+// The shader-function harness: any GLSL function becomes a batched compute test.
+//
+//   using penumbra::testing::ShaderFunction;
+//   ShaderFunction<float(float, glm::vec2)> f("penumbra/noise.glsl", "interleaved_gradient_noise");
+//   std::vector<std::tuple<float, glm::vec2>> cases = ...;
+//   std::vector<float> results = f.run(cases);          // one dispatch, one invocation per case
+//
+// The harness generates a compute wrapper (std430 input/output buffers, bounds check), compiles it
+// once per process, checks the host layouts against SPIR-V reflection, and runs on the process's
+// shared Vulkan device (testing::shared_context(), validation on). `out` and `inout` parameters
+// are declared with Out<T> / InOut<T> and come back in the result; resources (textures with their
+// samplers) are parameters of marker types (Sampler2DShadow, ...) bound once per batch.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <penumbra/gpu/resources.hpp>
+#include <penumbra/shader/compiler.hpp>
+#include <penumbra/testing/glsl_types.hpp>
+#include <span>
+#include <string>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace penumbra::gpu {
+class Context;
+}
+
+namespace penumbra::testing {
+
+// Parameter direction markers.
+template <class T>
+struct Out {
+  using type = T;
+};
+template <class T>
+struct InOut {
+  using type = T;
+};
+
+enum class ResourceKind {
+  sampler2d_shadow,
+  sampler2d_array_shadow,
+  sampler_cube_shadow,
+  sampler2d,
+  sampler2d_array
+};
+const char* glsl_name(ResourceKind kind);
+
+// Resource parameter markers: the GLSL function takes the opaque type as an argument.
+struct Sampler2DShadow {
+  static constexpr ResourceKind kind = ResourceKind::sampler2d_shadow;
+};
+struct Sampler2DArrayShadow {
+  static constexpr ResourceKind kind = ResourceKind::sampler2d_array_shadow;
+};
+struct SamplerCubeShadow {
+  static constexpr ResourceKind kind = ResourceKind::sampler_cube_shadow;
+};
+struct Sampler2D {
+  static constexpr ResourceKind kind = ResourceKind::sampler2d;
+};
+struct Sampler2DArray {
+  static constexpr ResourceKind kind = ResourceKind::sampler2d_array;
+};
+
+// An image with its sampler, bound to a resource parameter.
+struct Texture {
+  gpu::Image image;
+  gpu::Sampler sampler;
+  bool depth = false;
+};
+
+// A D32_SFLOAT depth texture (layers == 1: 2D; > 1 or array = true: 2D array; cube = true: 6
+// faces) filled from `depth` (layer-major, row-major), sampled through `sampler` (compare
+// samplers for the *Shadow kinds). Default: compare LESS_OR_EQUAL, nearest, clamp to edge.
+struct DepthTextureDesc {
+  uint32_t width = 1, height = 1, layers = 1;
+  bool array = false;
+  bool cube = false;
+  gpu::SamplerDesc sampler{VK_FILTER_NEAREST,
+                           VK_SAMPLER_MIPMAP_MODE_NEAREST,
+                           VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE,
+                           VK_BORDER_COLOR_FLOAT_OPAQUE_WHITE,
+                           true,
+                           VK_COMPARE_OP_LESS_OR_EQUAL,
+                           false};
+};
+std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
+                                            std::span<const float> depth);
+
+// A float texture with 1, 2 or 4 channels (R32 / RG32 / RGBA32 SFLOAT).
+struct FloatTextureDesc {
+  uint32_t width = 1, height = 1, layers = 1, channels = 1;
+  bool array = false;
+  gpu::SamplerDesc sampler{};
+};
+std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
+                                            std::span<const float> texels);
+
+struct SpecConstant {
+  uint32_t id;
+  uint32_t bits;  // the 32-bit value (use spec_constant() to build from int/float/bool)
+};
+template <class T>
+SpecConstant spec_constant(uint32_t id, T value) {
+  static_assert(sizeof(T) == 4 || std::is_same_v<T, bool>);
+  uint32_t bits = 0;
+  if constexpr (std::is_same_v<T, bool>)
+    bits = value ? 1u : 0u;
+  else
+    std::memcpy(&bits, &value, 4);
+  return {id, bits};
+}
+
+struct FunctionOptions {
+  // Searched after the default shader directories (the repo's shaders/ and PENUMBRA_SHADER_PATH,
+  // a colon-separated list).
+  std::vector<std::filesystem::path> include_dirs;
+  std::vector<shader::Define> defines;
+  std::vector<SpecConstant> spec_constants;
+  std::string prelude;  // GLSL placed before the #include of the tested file
+  uint32_t workgroup_size = 64;
+};
+
+// ---- the type-erased engine ---------------------------------------------------------------
+
+struct ParamSpec {
+  enum class Dir { in, out, inout, resource };
+  Dir dir = Dir::in;
+  std::shared_ptr<const TypeDesc> type;  // null for resources
+  ResourceKind resource = ResourceKind::sampler2d;
+};
+
+class FunctionEngine {
+ public:
+  // The engine for this exact wrapper: generated, compiled, reflected and checked once per
+  // process, then shared.
+  static std::shared_ptr<FunctionEngine> get(const std::filesystem::path& file,
+                                             const std::string& function,
+                                             std::shared_ptr<const TypeDesc> return_type,
+                                             const std::vector<ParamSpec>& params,
+                                             const FunctionOptions& options);
+  ~FunctionEngine();
+
+  const std::string& source() const { return source_; }
+  const std::filesystem::path& file() const { return file_; }
+  const std::string& signature() const { return signature_; }
+  uint32_t input_stride() const { return input_stride_; }
+  uint32_t output_stride() const { return output_stride_; }
+  // std430 offsets and types of the input members (in/inout params, in order) and output
+  // members (return value first, then out/inout params, in order).
+  const std::vector<uint32_t>& input_offsets() const { return input_offsets_; }
+  const std::vector<uint32_t>& output_offsets() const { return output_offsets_; }
+  const std::vector<std::shared_ptr<const TypeDesc>>& input_types() const { return input_types_; }
+  const std::vector<std::shared_ptr<const TypeDesc>>& output_types() const { return output_types_; }
+  size_t resource_count() const { return resource_kinds_.size(); }
+
+  // Runs `count` cases (inputs: count · input_stride bytes) and fills outputs (count ·
+  // output_stride bytes). resources[i] binds the i-th resource parameter.
+  void run(std::span<const std::byte> inputs, size_t count, std::span<std::byte> outputs,
+           const std::vector<std::shared_ptr<Texture>>& resources);
+
+  struct Impl;
+
+ private:
+  FunctionEngine() = default;
+  std::filesystem::path file_;
+  std::string signature_;
+  std::string source_;
+  uint32_t input_stride_ = 0, output_stride_ = 0;
+  std::vector<uint32_t> input_offsets_, output_offsets_;
+  std::vector<std::shared_ptr<const TypeDesc>> input_types_, output_types_;
+  std::vector<ResourceKind> resource_kinds_;
+  std::vector<size_t> resource_params_;  // parameter index of each resource
+  std::unique_ptr<Impl> impl_;
+};
+
+// Resolves a shader file through the harness's search path; throws naming what was searched.
+std::filesystem::path resolve_shader_file(const std::filesystem::path& file,
+                                          const std::vector<std::filesystem::path>& extra_dirs);
+std::vector<std::filesystem::path> default_shader_dirs();
+
+// ---- the typed front end -------------------------------------------------------------------
+
+namespace detail {
+
+template <class P>
+struct ParamTraits {  // plain `in` parameter
+  using In = std::tuple<P>;
+  using Result = std::tuple<>;
+  static ParamSpec spec() { return {ParamSpec::Dir::in, glsl_type<P>(), {}}; }
+};
+template <class T>
+struct ParamTraits<Out<T>> {
+  using In = std::tuple<>;
+  using Result = std::tuple<T>;
+  static ParamSpec spec() { return {ParamSpec::Dir::out, glsl_type<T>(), {}}; }
+};
+template <class T>
+struct ParamTraits<InOut<T>> {
+  using In = std::tuple<T>;
+  using Result = std::tuple<T>;
+  static ParamSpec spec() { return {ParamSpec::Dir::inout, glsl_type<T>(), {}}; }
+};
+template <class P>
+requires requires {
+  P::kind;
+}
+struct ParamTraits<P> {
+  using In = std::tuple<>;
+  using Result = std::tuple<>;
+  static ParamSpec spec() { return {ParamSpec::Dir::resource, nullptr, P::kind}; }
+};
+
+template <class Tuple>
+struct Unwrap {
+  using type = Tuple;
+};
+template <class T>
+struct Unwrap<std::tuple<T>> {
+  using type = T;
+};
+
+template <class R>
+using ReturnTuple = std::conditional_t<std::is_void_v<R>, std::tuple<>, std::tuple<R>>;
+
+}  // namespace detail
+
+template <class Signature>
+class ShaderFunction;
+
+template <class R, class... P>
+class ShaderFunction<R(P...)> {
+ public:
+  // One case: the values of the in and inout parameters, in order.
+  using Inputs = decltype(std::tuple_cat(std::declval<typename detail::ParamTraits<P>::In>()...));
+  // The return value (if not void), then the out and inout parameters, in order; a single value
+  // is returned bare rather than as a one-element tuple.
+  using ResultTuple =
+      decltype(std::tuple_cat(std::declval<detail::ReturnTuple<R>>(),
+                              std::declval<typename detail::ParamTraits<P>::Result>()...));
+  using Result = typename detail::Unwrap<ResultTuple>::type;
+
+  ShaderFunction(const std::filesystem::path& file, const std::string& function,
+                 FunctionOptions options = {}) {
+    std::shared_ptr<const TypeDesc> ret;
+    if constexpr (!std::is_void_v<R>) ret = glsl_type<R>();
+    engine_ =
+        FunctionEngine::get(file, function, ret, {detail::ParamTraits<P>::spec()...}, options);
+    resources_.resize(engine_->resource_count());
+  }
+
+  // Binds the texture of the `resource_index`-th resource parameter (0 = the first resource
+  // parameter of the signature).
+  ShaderFunction& bind(size_t resource_index, std::shared_ptr<Texture> texture) {
+    if (resource_index >= resources_.size()) {
+      throw Error("ShaderFunction::bind: resource index " + std::to_string(resource_index) +
+                  " out of range; the signature has " + std::to_string(resources_.size()) +
+                  " resource parameter(s)");
+    }
+    resources_[resource_index] = std::move(texture);
+    return *this;
+  }
+
+  // Evaluates every case in one dispatch (or a few, beyond the device's group-count limit).
+  std::vector<Result> run(std::span<const Inputs> cases) {
+    const size_t n = cases.size();
+    std::vector<Result> results(n);
+    if (n == 0) return results;
+    const uint32_t in_stride = engine_->input_stride(), out_stride = engine_->output_stride();
+    input_bytes_.assign(n * in_stride, std::byte{0});
+    output_bytes_.assign(n * out_stride, std::byte{0});
+    const auto& in_off = engine_->input_offsets();
+    const auto& in_types = engine_->input_types();
+    for (size_t c = 0; c < n; ++c) {
+      std::byte* base = input_bytes_.data() + c * in_stride;
+      std::apply(
+          [&](const auto&... v) {
+            size_t k = 0;
+            ((detail::pack(v, base + in_off[k], *in_types[k]), ++k), ...);
+          },
+          cases[c]);
+    }
+    engine_->run(input_bytes_, n, output_bytes_, resources_);
+    const auto& out_off = engine_->output_offsets();
+    const auto& out_types = engine_->output_types();
+    for (size_t c = 0; c < n; ++c) {
+      const std::byte* base = output_bytes_.data() + c * out_stride;
+      Result r{};  // a local, not results[c]: std::vector<bool> hands out proxies
+      if constexpr (std::tuple_size_v<ResultTuple> == 1) {
+        detail::unpack(r, base + out_off[0], *out_types[0]);
+      } else {
+        std::apply(
+            [&](auto&... v) {
+              size_t k = 0;
+              ((detail::unpack(v, base + out_off[k], *out_types[k]), ++k), ...);
+            },
+            r);
+      }
+      results[c] = std::move(r);
+    }
+    return results;
+  }
+  std::vector<Result> run(const std::vector<Inputs>& cases) {
+    return run(std::span<const Inputs>(cases));
+  }
+
+  // A single case (a batch of one).
+  template <class... A>
+  Result operator()(A&&... args) {
+    const Inputs one{std::forward<A>(args)...};
+    return run(std::span<const Inputs>(&one, 1))[0];
+  }
+
+  const std::string& source() const { return engine_->source(); }
+  const FunctionEngine& engine() const { return *engine_; }
+
+ private:
+  std::shared_ptr<FunctionEngine> engine_;
+  std::vector<std::shared_ptr<Texture>> resources_;
+  std::vector<std::byte> input_bytes_, output_bytes_;
+};
+
+}  // namespace penumbra::testing

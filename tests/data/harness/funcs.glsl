@@ -1,0 +1,78 @@
+// Functions the harness self-tests call. Each one exercises a layout or calling-convention case.
+#ifndef HARNESS_FUNCS_GLSL
+#define HARNESS_FUNCS_GLSL
+
+struct Light {
+  vec3 dir;
+  float intensity;
+};
+
+struct Pair {
+  float a;
+  vec3 b;  // vec3 after a float: offset 16 in std430
+  bool flag;
+};
+
+float add_mul(float a, float b, float c) { return a + b * c; }
+
+// A float then a vec3: the vec3 sits at offset 16 of the case struct.
+vec3 scale_vec3(float s, vec3 v) { return s * v; }
+
+mat3 transpose3(mat3 m) { return transpose(m); }
+mat2 inverse2(mat2 m) { return inverse(m); }
+mat4 mul4(mat4 a, mat4 b) { return a * b; }
+mat4x3 drop_row(mat4 m) { return mat4x3(m); }
+
+bool is_positive(float x) { return x > 0.0; }
+bvec3 signs(vec3 v) { return greaterThan(v, vec3(0.0)); }
+
+int floor_to_int(float x) { return int(floor(x)); }
+uvec2 hash2(uvec2 v) { return v * 1664525u + 1013904223u; }
+ivec4 negate4(ivec4 v) { return -v; }
+
+void split(vec4 v, out vec2 lo, out vec2 hi) {
+  lo = v.xy;
+  hi = v.zw;
+}
+
+// Returns the old accumulator; the inout parameter comes back with the sum.
+float accumulate(inout float acc, float x) {
+  float old = acc;
+  acc += x;
+  return old;
+}
+
+float light_dot(Light l, vec3 n) { return max(dot(normalize(l.dir), n), 0.0) * l.intensity; }
+
+Pair make_pair(float a, vec3 b) { return Pair(a, b, a > b.x); }
+
+float sum4(float v[4]) { return v[0] + v[1] + v[2] + v[3]; }
+vec3 sum_vec3s(vec3 v[3]) { return v[0] + v[1] + v[2]; }
+float total_intensity(Light ls[3]) { return ls[0].intensity + ls[1].intensity + ls[2].intensity; }
+
+void reverse3(inout float v[3]) {
+  float t = v[0];
+  v[0] = v[2];
+  v[2] = t;
+}
+
+#ifndef HARNESS_SCALE
+#define HARNESS_SCALE 1.0
+#endif
+layout(constant_id = 7) const float kSpecScale = 1.0;
+float scaled(float x) { return x * HARNESS_SCALE * kSpecScale; }
+
+// One hardware compare tap.
+float compare_tap(sampler2DShadow map, vec3 uv_ref) { return texture(map, uv_ref); }
+float compare_tap_array(sampler2DArrayShadow map, vec4 uv_layer_ref) { return texture(map, uv_layer_ref); }
+float raw_depth(sampler2D map, vec2 uv) { return textureLod(map, uv, 0.0).r; }
+
+// 3×3 PCF of bilinear compare taps, one texel apart.
+float pcf3x3(sampler2DShadow map, vec2 uv, float ref, vec2 texel) {
+  float sum = 0.0;
+  for (int y = -1; y <= 1; ++y)
+    for (int x = -1; x <= 1; ++x) sum += texture(map, vec3(uv + vec2(x, y) * texel, ref));
+  return sum / 9.0;
+}
+
+#endif

@@ -1,0 +1,349 @@
+// Self-tests of the shader-function harness on the GPU: layouts (vec3 padding, mat3 columns,
+// bool, arrays of structs), out/inout parameters, resources, defines and specialization
+// constants, error messages, and that a wrong answer really fails with the full report.
+#include <gmock/gmock.h>
+#include <gtest/gtest-spi.h>
+#include <gtest/gtest.h>
+#include <penumbra/core/error.hpp>
+#include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
+
+#include <cmath>
+#include <random>
+
+struct Light {
+  glm::vec3 dir;
+  float intensity;
+};
+PENUMBRA_GLSL_STRUCT(Light, "Light", dir, intensity);
+
+struct Pair {
+  float a;
+  glm::vec3 b;
+  bool flag;
+};
+PENUMBRA_GLSL_STRUCT(Pair, "Pair", a, b, flag);
+
+// The same GLSL struct described with its fields in the wrong order: the layout check must
+// refuse it, naming the field and both offsets.
+struct LightMisdescribed {
+  float intensity;
+  glm::vec3 dir;
+};
+PENUMBRA_GLSL_STRUCT(LightMisdescribed, "Light", intensity, dir);
+
+namespace penumbra::testing {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::filesystem::path kFuncs = PENUMBRA_TEST_DATA_DIR "/harness/funcs.glsl";
+
+class HarnessTest : public GpuTest {};
+
+TEST_F(HarnessTest, ScalarFunctionOverThousandsOfCasesInOneBatch) {
+  ShaderFunction<float(float, float, float)> f(kFuncs, "add_mul");
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-100.0f, 100.0f);
+  std::vector<std::tuple<float, float, float>> cases(20000);
+  std::vector<float> want;
+  for (auto& c : cases) {
+    c = {u(rng), u(rng), u(rng)};
+    // GLSL may fuse a + b*c into an FMA (SPIR-V allows contraction): compute both ways and
+    // accept either by comparing with a bound of 1 ULP of the larger term.
+    want.push_back(std::get<0>(c) + std::get<1>(c) * std::get<2>(c));
+  }
+  const auto got = f.run(cases);
+  ASSERT_EQ(got.size(), cases.size());
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::ulps(1, 1e-3));
+}
+
+TEST_F(HarnessTest, Vec3AfterFloatIsPaddedTo16) {
+  ShaderFunction<glm::vec3(float, glm::vec3)> f(kFuncs, "scale_vec3");
+  EXPECT_EQ(f.engine().input_offsets(), (std::vector<uint32_t>{0, 16}));
+  EXPECT_EQ(f.engine().input_stride(), 32u);
+  const auto r = f(2.0f, glm::vec3(1, -2, 3.5f));
+  EXPECT_EQ(r, glm::vec3(2, -4, 7));
+}
+
+TEST_F(HarnessTest, MatricesTravelColumnMajorWithStd430Strides) {
+  ShaderFunction<glm::mat3(glm::mat3)> t(kFuncs, "transpose3");
+  const glm::mat3 m(1, 2, 3, 4, 5, 6, 7, 8, 9);
+  EXPECT_EQ(t(m), glm::transpose(m));
+  EXPECT_EQ(t.engine().input_stride(), 48u);  // three vec3 columns at stride 16
+
+  ShaderFunction<glm::mat2(glm::mat2)> inv(kFuncs, "inverse2");
+  const glm::mat2 a(4, 2, 7, 6);
+  EXPECT_THAT(inv(a), NearTo(glm::inverse(a), Tolerance::ulps(4, 1e-6)));
+  EXPECT_EQ(inv.engine().input_stride(), 16u);  // two vec2 columns at stride 8
+
+  ShaderFunction<glm::mat4(glm::mat4, glm::mat4)> mul(kFuncs, "mul4");
+  glm::mat4 x(0.0f), y(0.0f);
+  for (int c = 0; c < 4; ++c)
+    for (int r = 0; r < 4; ++r) {
+      x[c][r] = float(c * 4 + r);
+      y[c][r] = float((c + 1) * (r + 2) % 7);
+    }
+  EXPECT_EQ(mul(x, y), x * y);  // small integers: exact
+
+  ShaderFunction<glm::mat4x3(glm::mat4)> drop(kFuncs, "drop_row");
+  EXPECT_EQ(drop(x), glm::mat4x3(x));
+}
+
+TEST_F(HarnessTest, BoolsAndBoolVectorsAre32BitInBuffers) {
+  ShaderFunction<bool(float)> pos(kFuncs, "is_positive");
+  const auto r = pos.run(std::vector<std::tuple<float>>{{1.0f}, {-1.0f}, {0.0f}, {1e-30f}});
+  EXPECT_EQ(r, (std::vector<bool>{true, false, false, true}));
+  ShaderFunction<glm::bvec3(glm::vec3)> signs(kFuncs, "signs");
+  EXPECT_EQ(signs(glm::vec3(1, -1, 2)), glm::bvec3(true, false, true));
+}
+
+TEST_F(HarnessTest, IntegerTypes) {
+  ShaderFunction<int32_t(float)> fl(kFuncs, "floor_to_int");
+  EXPECT_EQ(fl(-2.5f), -3);
+  EXPECT_EQ(fl(7.9f), 7);
+  ShaderFunction<glm::uvec2(glm::uvec2)> h(kFuncs, "hash2");
+  const glm::uvec2 v(0xdeadbeefu, 12345u);
+  EXPECT_EQ(h(v), v * 1664525u + 1013904223u);  // unsigned wrap-around matches
+  ShaderFunction<glm::ivec4(glm::ivec4)> n(kFuncs, "negate4");
+  EXPECT_EQ(n(glm::ivec4(1, -2, 3, INT32_MAX)), glm::ivec4(-1, 2, -3, -INT32_MAX));
+}
+
+TEST_F(HarnessTest, OutParametersComeBackAsResults) {
+  ShaderFunction<void(glm::vec4, Out<glm::vec2>, Out<glm::vec2>)> f(kFuncs, "split");
+  const auto [lo, hi] = f(glm::vec4(1, 2, 3, 4));
+  EXPECT_EQ(lo, glm::vec2(1, 2));
+  EXPECT_EQ(hi, glm::vec2(3, 4));
+}
+
+TEST_F(HarnessTest, InOutParametersGoInAndComeBack) {
+  ShaderFunction<float(InOut<float>, float)> f(kFuncs, "accumulate");
+  const auto results = f.run(std::vector<std::tuple<float, float>>{{10.0f, 5.0f}, {-1.0f, 1.0f}});
+  EXPECT_EQ(std::get<0>(results[0]), 10.0f);  // return value: the old accumulator
+  EXPECT_EQ(std::get<1>(results[0]), 15.0f);  // inout: the new one
+  EXPECT_EQ(std::get<0>(results[1]), -1.0f);
+  EXPECT_EQ(std::get<1>(results[1]), 0.0f);
+
+  ShaderFunction<void(InOut<std::array<float, 3>>)> rev(kFuncs, "reverse3");
+  EXPECT_EQ(rev(std::array<float, 3>{1, 2, 3}), (std::array<float, 3>{3, 2, 1}));
+}
+
+TEST_F(HarnessTest, UserStructsInAndOut) {
+  ShaderFunction<float(Light, glm::vec3)> f(kFuncs, "light_dot");
+  const float r = f(Light{glm::vec3(0, 0, 2), 3.0f}, glm::vec3(0, 0, 1));
+  EXPECT_EQ(r, 3.0f);
+  ShaderFunction<Pair(float, glm::vec3)> mk(kFuncs, "make_pair");
+  const Pair p = mk(5.0f, glm::vec3(1, 2, 3));
+  EXPECT_EQ(p.a, 5.0f);
+  EXPECT_EQ(p.b, glm::vec3(1, 2, 3));
+  EXPECT_TRUE(p.flag);
+  // Pair: a @0, b @16 (vec3 alignment), flag @28 right after the vec3; size 32.
+  EXPECT_EQ(glsl_type<Pair>()->members[1].offset, 16u);
+  EXPECT_EQ(glsl_type<Pair>()->members[2].offset, 28u);
+  EXPECT_EQ(glsl_type<Pair>()->size, 32u);
+}
+
+TEST_F(HarnessTest, ArraysOfScalarsVectorsAndStructs) {
+  ShaderFunction<float(std::array<float, 4>)> s4(kFuncs, "sum4");
+  EXPECT_EQ(s4(std::array<float, 4>{1, 2, 3, 4}), 10.0f);
+  ShaderFunction<glm::vec3(std::array<glm::vec3, 3>)> sv(kFuncs, "sum_vec3s");
+  EXPECT_EQ(sv(std::array<glm::vec3, 3>{glm::vec3(1), glm::vec3(2), glm::vec3(3, 0, 0)}),
+            glm::vec3(6, 3, 3));
+  EXPECT_EQ(sv.engine().input_stride(), 48u);  // vec3[3]: stride 16
+  ShaderFunction<float(std::array<Light, 3>)> ti(kFuncs, "total_intensity");
+  EXPECT_EQ(ti(std::array<Light, 3>{Light{glm::vec3(1), 1.0f}, Light{glm::vec3(2), 2.5f},
+                                     Light{glm::vec3(3), 4.0f}}),
+            7.5f);
+}
+
+TEST_F(HarnessTest, DefinesAndSpecializationConstantsPerTest) {
+  ShaderFunction<float(float)> plain(kFuncs, "scaled");
+  EXPECT_EQ(plain(3.0f), 3.0f);
+  FunctionOptions with_define;
+  with_define.defines = {{"HARNESS_SCALE", "2.0"}};
+  ShaderFunction<float(float)> doubled(kFuncs, "scaled", with_define);
+  EXPECT_EQ(doubled(3.0f), 6.0f);
+  FunctionOptions with_spec = with_define;
+  with_spec.spec_constants = {spec_constant(7, 10.0f)};
+  ShaderFunction<float(float)> spec(kFuncs, "scaled", with_spec);
+  EXPECT_EQ(spec(3.0f), 60.0f);
+}
+
+TEST_F(HarnessTest, WrapperIsCompiledOncePerProcessAndCanBeDumped) {
+  ShaderFunction<float(float, float, float)> a(kFuncs, "add_mul");
+  ShaderFunction<float(float, float, float)> b(kFuncs, "add_mul");
+  EXPECT_EQ(&a.engine(), &b.engine());
+  EXPECT_THAT(a.source(), HasSubstr("add_mul(c.p0, c.p1, c.p2)"));
+  EXPECT_THAT(a.source(), HasSubstr("PenumbraIn cases[]"));
+  EXPECT_THAT(a.source(), HasSubstr("if (gl_GlobalInvocationID.x >= penumbra_pc.count) return;"));
+}
+
+TEST_F(HarnessTest, FileResolvedThroughSearchPaths) {
+  FunctionOptions opts;
+  opts.include_dirs = {PENUMBRA_TEST_DATA_DIR};
+  ShaderFunction<float(float, float, float)> f("harness/funcs.glsl", "add_mul", opts);
+  EXPECT_EQ(f(1.0f, 2.0f, 3.0f), 7.0f);
+  try {
+    ShaderFunction<float(float)> g("harness/no_such_file.glsl", "x", opts);
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("no_such_file.glsl"));
+    EXPECT_THAT(e.what(), HasSubstr(PENUMBRA_TEST_DATA_DIR));
+  }
+}
+
+TEST_F(HarnessTest, CompileErrorInTestedFileNamesItsFileAndLine) {
+  try {
+    ShaderFunction<float(float)> f(PENUMBRA_TEST_DATA_DIR "/harness/broken.glsl", "broken");
+    FAIL() << "expected a compile error";
+  } catch (const shader::CompileError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("broken.glsl:5"));
+    ASSERT_FALSE(e.diagnostics().empty());
+    EXPECT_EQ(e.diagnostics()[0].file.filename(), "broken.glsl");
+    EXPECT_EQ(e.diagnostics()[0].line, 5);
+  }
+}
+
+TEST_F(HarnessTest, SignatureMismatchExplainsAndShowsTheWrapper) {
+  try {
+    ShaderFunction<float(glm::vec2)> f(kFuncs, "is_positive");
+    FAIL();
+  } catch (const shader::CompileError& e) {
+    EXPECT_THAT(e.what(), HasSubstr("does the C++ signature match"));
+    EXPECT_THAT(e.what(), HasSubstr("float is_positive(vec2)"));
+    EXPECT_THAT(e.what(), HasSubstr("generated wrapper"));
+  }
+}
+
+TEST_F(HarnessTest, HostLayoutMismatchNamesTheMemberAndBothOffsets) {
+  try {
+    ShaderFunction<float(LightMisdescribed, glm::vec3)> f(kFuncs, "light_dot");
+    FAIL();
+  } catch (const Error& e) {
+    // The C++ description puts intensity first (offset 0) and dir at 16; GLSL has dir at 0.
+    EXPECT_THAT(e.what(), HasSubstr("PenumbraIn.p0.intensity"));
+    EXPECT_THAT(e.what(), HasSubstr("host std430 offset 0, SPIR-V offset 12"));
+  }
+}
+
+TEST_F(HarnessTest, WrongAnswerFailsWithFullReport) {
+  ShaderFunction<float(float, float, float)> f(kFuncs, "add_mul");
+  std::vector<std::tuple<float, float, float>> cases;
+  std::vector<float> wrong;
+  for (int i = 0; i < 50; ++i) {
+    cases.push_back({float(i), 2.0f, 0.5f});
+    // A reference with a bug in every 5th case (off by 1 ULP from 3.5 on, then more).
+    wrong.push_back(float(i) + 1.0f + (i % 5 == 3 ? 0.25f : 0.0f));
+  }
+  const auto got = f.run(cases);
+  auto describe = [&](size_t i) { return format_tuple(cases[i]); };
+  const auto result = compare_batch(wrong, got, Tolerance::ulps(2), describe);
+  EXPECT_FALSE(result.passed);
+  EXPECT_EQ(result.failing_cases, 10u);
+  EXPECT_THAT(result.report, HasSubstr("case 3"));
+  EXPECT_THAT(result.report, HasSubstr("(3, 2, 0.5)"));
+  EXPECT_THAT(result.report, HasSubstr("0x1.1p+2"));   // expected 4.25 in hex-float
+  EXPECT_THAT(result.report, HasSubstr("0x1p+2"));     // actual 4
+  EXPECT_THAT(result.report, HasSubstr("ULP"));
+  EXPECT_NONFATAL_FAILURE(PENUMBRA_EXPECT_ALL_NEAR(wrong, got, Tolerance::ulps(2)), "case 48");
+}
+
+// CPU compare-then-filter reference for one bilinear compare tap (LESS_OR_EQUAL, clamp).
+double reference_tap(const std::vector<float>& depth, int w, int h, glm::vec2 uv, float ref) {
+  auto lit = [&](int x, int y) {
+    x = std::clamp(x, 0, w - 1);
+    y = std::clamp(y, 0, h - 1);
+    return ref <= depth[size_t(y) * w + x] ? 1.0 : 0.0;
+  };
+  const double fx = double(uv.x) * w - 0.5, fy = double(uv.y) * h - 0.5;
+  const int x0 = int(std::floor(fx)), y0 = int(std::floor(fy));
+  const double a = fx - x0, b = fy - y0;
+  return (1 - a) * (1 - b) * lit(x0, y0) + a * (1 - b) * lit(x0 + 1, y0) +
+         (1 - a) * b * lit(x0, y0 + 1) + a * b * lit(x0 + 1, y0 + 1);
+}
+
+TEST_F(HarnessTest, CompareSamplerPcfMatchesCpuCompareThenFilter) {
+  const int w = 32, h = 24;
+  std::mt19937 rng(99);
+  std::uniform_real_distribution<float> u(0.0f, 1.0f);
+  std::vector<float> depth(size_t(w) * h);
+  for (auto& d : depth) d = u(rng);
+  DepthTextureDesc desc;
+  desc.width = w;
+  desc.height = h;
+  desc.sampler.filter = VK_FILTER_LINEAR;
+  auto map = make_depth_texture(desc, depth);
+
+  ShaderFunction<float(Sampler2DShadow, glm::vec2, float, glm::vec2)> pcf(kFuncs, "pcf3x3");
+  pcf.bind(0, map);
+  std::vector<std::tuple<glm::vec2, float, glm::vec2>> cases;
+  std::vector<float> want;
+  const glm::vec2 texel(1.0f / w, 1.0f / h);
+  for (int i = 0; i < 5000; ++i) {
+    const glm::vec2 uv(u(rng), u(rng));
+    const float ref = u(rng);
+    cases.push_back({uv, ref, texel});
+    double sum = 0;
+    for (int y = -1; y <= 1; ++y)
+      for (int x = -1; x <= 1; ++x)
+        sum += reference_tap(depth, w, h, uv + glm::vec2(x, y) * texel, ref);
+    want.push_back(float(sum / 9.0));
+  }
+  const auto got = pcf.run(cases);
+  // Each tap's bilinear weights may be quantised to subTexelPrecisionBits (Vulkan spec,
+  // "Texel Filtering"): a tap moves by at most 2·2^-bits, and so does their mean.
+  const double bound =
+      2.0 * std::ldexp(1.0, -int(ctx().info().limits.subTexelPrecisionBits)) + 1e-6;
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::absolute(bound),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+TEST_F(HarnessTest, ArrayCompareAndRawDepthResources) {
+  const int w = 4, h = 4, layers = 3;
+  std::vector<float> depth(size_t(w) * h * layers);
+  for (int l = 0; l < layers; ++l)
+    for (int i = 0; i < w * h; ++i) depth[size_t(l) * w * h + i] = 0.2f + 0.3f * float(l);
+  DepthTextureDesc desc;
+  desc.width = w;
+  desc.height = h;
+  desc.layers = layers;
+  auto arr = make_depth_texture(desc, depth);
+  ShaderFunction<float(Sampler2DArrayShadow, glm::vec4)> tap(kFuncs, "compare_tap_array");
+  tap.bind(0, arr);
+  for (int l = 0; l < layers; ++l) {
+    EXPECT_EQ(tap(glm::vec4(0.5f, 0.5f, float(l), 0.45f)), l >= 1 ? 1.0f : 0.0f) << l;
+  }
+  DepthTextureDesc raw_desc;
+  raw_desc.width = w;
+  raw_desc.height = h;
+  raw_desc.sampler.compare = false;
+  auto raw = make_depth_texture(raw_desc, std::span(depth).first(w * h));
+  ShaderFunction<float(Sampler2D, glm::vec2)> read(kFuncs, "raw_depth");
+  read.bind(0, raw);
+  EXPECT_EQ(read(glm::vec2(0.3f, 0.9f)), 0.2f);
+}
+
+TEST_F(HarnessTest, ResourceErrorsNameTheParameter) {
+  ShaderFunction<float(Sampler2DShadow, glm::vec3)> tap(kFuncs, "compare_tap");
+  try {
+    tap(glm::vec3(0.5f));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("resource parameter 0 (sampler2DShadow) has no texture bound"));
+  }
+  DepthTextureDesc raw_desc;
+  raw_desc.sampler.compare = false;
+  const float one = 1.0f;
+  tap.bind(0, make_depth_texture(raw_desc, std::span(&one, 1)));
+  try {
+    tap(glm::vec3(0.5f));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("non-compare sampler"));
+  }
+  EXPECT_THROW(tap.bind(3, nullptr), Error);
+}
+
+}  // namespace
+}  // namespace penumbra::testing
