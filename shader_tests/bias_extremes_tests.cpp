@@ -1,0 +1,209 @@
+// Extremes of shaders/penumbra/bias.glsl: degenerate normals and light directions (zero,
+// denormal, overflowing, NaN, Inf), N.L exactly 0, negative, NaN, tiny and above 1, huge slope
+// scales, singular and non-finite receiver-plane Jacobians, and apply_depth_bias at the ends of
+// the depth range in both conventions. Nothing may come out NaN or infinite.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/generators.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
+#include <reference/bias_ref.hpp>
+#include <string>
+#include <tuple>
+#include <vector>
+
+namespace penumbra::testing {
+namespace {
+
+using L = std::numeric_limits<float>;
+constexpr const char* kBias = "penumbra/bias.glsl";
+constexpr double kU = 0x1p-24;
+constexpr float kInf = L::infinity();
+constexpr float kNaN = L::quiet_NaN();
+// See bias_tests.cpp for the derivations.
+const Tolerance kOffsetTolerance = Tolerance::absolute(128 * kU);
+const Tolerance kSlopeTolerance = Tolerance::relative(32 * kU);
+
+class BiasExtremesTest : public GpuTest {};
+
+// Vectors no normalization can use: zero, signed zero, denormal (the squared length underflows),
+// tiny (squared length denormal, which a GPU may flush), overflowing (squared length +Inf), NaN,
+// infinite.
+const std::vector<glm::vec3> kDegenerate = {
+    glm::vec3(0.0f),
+    glm::vec3(-0.0f, 0.0f, -0.0f),
+    glm::vec3(L::denorm_min(), 0.0f, 0.0f),
+    glm::vec3(1e-40f, -1e-40f, 1e-40f),
+    glm::vec3(0.0f, 1e-20f, 0.0f),
+    glm::vec3(1e20f, 1e20f, 0.0f),
+    glm::vec3(L::max(), 0.0f, 0.0f),
+    glm::vec3(kNaN, 0.0f, 1.0f),
+    glm::vec3(0.0f, 0.0f, -kNaN),
+    glm::vec3(kInf, 0.0f, 0.0f),
+    glm::vec3(0.0f, -kInf, 1.0f),
+};
+
+TEST_F(BiasExtremesTest, DegenerateNormalsGiveNoOffsetAndNeverNaN) {
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, float, float)> offset(kBias, "normal_offset");
+  const std::vector<glm::vec3> lights = {glm::vec3(0, 1, 0), glm::vec3(1, 1, 0), glm::vec3(0.0f),
+                                         glm::vec3(kNaN)};
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, float>> cases;
+  for (const glm::vec3& n : kDegenerate) {
+    for (const glm::vec3& l : lights) cases.emplace_back(n, l, 0.05f, 1.5f);
+  }
+  const auto got = offset.run(cases);
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    EXPECT_EQ(got[i], glm::vec3(0.0f)) << format_tuple(cases[i]) << " -> " << format_value(got[i]);
+    EXPECT_EQ(ref::normal_offset(std::get<0>(cases[i]), std::get<1>(cases[i]), 0.05f, 1.5f),
+              glm::dvec3(0.0))
+        << "reference: " << format_tuple(cases[i]);
+  }
+}
+
+TEST_F(BiasExtremesTest, DegenerateLightDirectionsGiveTheFullOffset) {
+  // Without a usable light direction the angle is unknown: the grazing (largest) offset.
+  ShaderFunction<float(glm::vec3, glm::vec3)> scale(kBias, "normal_offset_scale");
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, float, float)> offset(kBias, "normal_offset");
+  std::vector<std::tuple<glm::vec3, glm::vec3>> cases;
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, float>> offset_cases;
+  for (const glm::vec3& l : kDegenerate) {
+    cases.emplace_back(glm::vec3(0, 0, 2), l);
+    offset_cases.emplace_back(glm::vec3(0, 0, 2), l, 0.25f, 2.0f);
+  }
+  const std::vector<float> ones(cases.size(), 1.0f);
+  PENUMBRA_EXPECT_ALL_NEAR(ones, scale.run(cases), Tolerance::exact(),
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
+  const std::vector<glm::vec3> full(cases.size(), glm::vec3(0, 0, 0.5f));
+  PENUMBRA_EXPECT_ALL_NEAR(full, offset.run(offset_cases), kOffsetTolerance,
+                           [&](std::size_t i) { return format_tuple(offset_cases[i]); });
+}
+
+TEST_F(BiasExtremesTest, GrazingAndBackFacingAnglesStayFinite) {
+  ShaderFunction<float(glm::vec3, glm::vec3)> scale(kBias, "normal_offset_scale");
+  const glm::vec3 n(0, 1, 0);
+  // N.L exactly 0 (perpendicular), just above and below 0, tiny, exactly 1, exactly -1, and
+  // light vectors of extreme (but usable) lengths.
+  const std::vector<glm::vec3> lights = {
+      glm::vec3(1, 0, 0),           glm::vec3(1, 1e-7f, 0),  glm::vec3(1, -1e-7f, 0),
+      glm::vec3(1, 1e-30f, 0),      glm::vec3(1, -0.0f, 0),  glm::vec3(0, 1, 0),
+      glm::vec3(0, -1, 0),          glm::vec3(0, 1e-18f, 0), glm::vec3(1e18f, 1e18f, 0),
+      glm::vec3(1e-18f, 1e-18f, 0), glm::vec3(-1, -1e-7f, 0)};
+  std::vector<std::tuple<glm::vec3, glm::vec3>> cases;
+  std::vector<float> want;
+  for (const glm::vec3& l : lights) {
+    cases.emplace_back(n, l);
+    want.push_back(static_cast<float>(ref::normal_offset_scale(n, l)));
+  }
+  const auto got = scale.run(cases);
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, kOffsetTolerance,
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_TRUE(got[i] >= 0.0f && got[i] <= 1.0f) << format_tuple(cases[i]) << " -> " << got[i];
+  }
+  EXPECT_EQ(got[0], 1.0f);   // N.L = 0 exactly: grazing, the full offset
+  EXPECT_EQ(got[6], 1.0f);   // facing away
+  EXPECT_LT(got[5], 1e-6f);  // facing the light: (almost) no offset
+}
+
+TEST_F(BiasExtremesTest, SlopeScaledBiasNeverNaNOrInfinite) {
+  ShaderFunction<float(float, float, float, float)> bias(kBias, "slope_scaled_bias");
+  std::vector<float> cosines = extreme_float_values({.nan_inf = true});
+  cosines.push_back(-kNaN);
+  cosines.push_back(2.0f);
+  std::vector<std::tuple<float, float, float, float>> cases;
+  for (float c : cosines) {
+    for (float slope : {0.0f, 1e-3f, 1.0f, 1e30f, L::max()}) {
+      for (float constant_bias : {0.0f, 1e-4f}) cases.emplace_back(c, constant_bias, slope, 1e-2f);
+    }
+  }
+  const auto got = bias.run(cases);
+  std::vector<float> want;
+  for (const auto& [c, k, s, m] : cases)
+    want.push_back(static_cast<float>(ref::slope_scaled_bias(c, k, s, m)));
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, kSlopeTolerance,
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    ASSERT_TRUE(std::isfinite(got[i]) && got[i] >= 0.0f && got[i] <= 1e-2f)
+        << format_tuple(cases[i]) << " -> " << got[i];
+  }
+  // The defined values at the edges.
+  EXPECT_EQ(bias(0.0f, 1e-4f, 1e-3f, 1e-2f), 1e-2f);  // N.L = 0: tan unbounded -> max
+  EXPECT_EQ(bias(-0.0f, 1e-4f, 1e-3f, 1e-2f), 1e-2f);
+  EXPECT_EQ(bias(-0.3f, 1e-4f, 1e-3f, 1e-2f), 1e-2f);  // back face -> max
+  EXPECT_EQ(bias(kNaN, 1e-4f, 1e-3f, 1e-2f), 1e-2f);
+  EXPECT_EQ(bias(1.0f, 1e-4f, L::max(), 1e-2f), 1e-4f);      // tan 0: the constant alone
+  EXPECT_EQ(bias(kInf, 1e-4f, 1e-3f, 1e-2f), 1e-4f);         // clamped to cos 1
+  EXPECT_EQ(bias(1e-30f, 1e-4f, 0.0f, 1e-2f), 1e-4f);        // no slope term: 0 * huge tan is 0
+  EXPECT_EQ(bias(L::min(), 1e-4f, L::max(), 1e-2f), 1e-2f);  // overflow to +Inf, then clamped
+}
+
+TEST_F(BiasExtremesTest, SingularAndNonFiniteJacobiansGiveAZeroGradient) {
+  ShaderFunction<glm::vec2(glm::vec3, glm::vec3)> gradient(kBias, "receiver_plane_depth_gradient");
+  const glm::vec3 dx(1e-3f, 2e-4f, 5e-5f);
+  struct Case {
+    glm::vec3 dx, dy;
+    const char* what;
+  };
+  const std::vector<Case> table = {
+      {glm::vec3(0.0f), glm::vec3(0.0f), "all zero (flat, or a helper invocation)"},
+      {dx, glm::vec3(2e-3f, 4e-4f, 1e-4f), "y column = 2 x column: det exactly 0"},
+      {dx, glm::vec3(-5e-4f, -1e-4f, 0.0f), "y column = -1/2 x column"},
+      {dx, glm::vec3(0.0f, 0.0f, 1e-4f), "zero uv change along y"},
+      {glm::vec3(0.0f, 0.0f, 1e-4f), dx, "zero uv change along x"},
+      {dx, glm::vec3(1e-3f, 2.00000001e-4f, 0.0f), "parallel up to rounding"},
+      {dx, glm::vec3(1e-3f, 2.00002e-4f, 1e-4f), "relative det 1e-5, below the threshold"},
+      {glm::vec3(1e-25f, 1e-25f, 1e-25f), glm::vec3(-1e-25f, 1e-25f, 0.0f),
+       "products underflow to zero"},
+      {glm::vec3(1e30f, 1e30f, 1.0f), glm::vec3(-1e30f, 1e30f, 0.0f), "products overflow"},
+      {glm::vec3(kNaN, 0.0f, 0.0f), glm::vec3(0.0f, 1e-3f, 0.0f), "NaN"},
+      {dx, glm::vec3(0.0f, 1e-3f, kNaN), "NaN depth derivative"},
+      {glm::vec3(kInf, 0.0f, 0.0f), glm::vec3(0.0f, 1e-3f, 0.0f), "Inf"},
+      {dx, glm::vec3(0.0f, 1e-3f, -kInf), "Inf depth derivative"},
+      {glm::vec3(1e-3f, 0.0f, L::max()), glm::vec3(0.0f, 1e-3f, L::max()),
+       "gradient overflows a float"},
+  };
+  std::vector<std::tuple<glm::vec3, glm::vec3>> cases;
+  for (const Case& c : table) cases.emplace_back(c.dx, c.dy);
+  const auto got = gradient.run(cases);
+  for (std::size_t i = 0; i < table.size(); ++i) {
+    EXPECT_EQ(got[i], glm::vec2(0.0f))
+        << table[i].what << ": " << format_tuple(cases[i]) << " -> " << format_value(got[i]);
+    EXPECT_EQ(ref::receiver_plane_depth_gradient(table[i].dx, table[i].dy), glm::dvec2(0.0))
+        << "reference: " << table[i].what;
+  }
+  // And a regular one next to them is not zero: (dz/du, dz/dv) = (2, -3).
+  const glm::vec3 rx(1e-3f, 0.0f, 2e-3f), ry(0.0f, 1e-3f, -3e-3f);
+  EXPECT_THAT(gradient(rx, ry), NearTo(glm::vec2(2.0f, -3.0f), Tolerance::ulps(8)));
+  // A determinant beyond 2^126 (1e38), where Vulkan no longer bounds the divide's error and a
+  // reciprocal flushes to zero: still (3, -2).
+  const glm::vec3 hx(1e19f, 0.0f, 3e19f), hy(0.0f, 1e19f, -2e19f);
+  EXPECT_THAT(gradient(hx, hy), NearTo(glm::vec2(3.0f, -2.0f), Tolerance::ulps(8)));
+  EXPECT_THAT(glm::vec2(ref::receiver_plane_depth_gradient(hx, hy)),
+              NearTo(glm::vec2(3.0f, -2.0f), Tolerance::ulps(1)));
+}
+
+TEST_F(BiasExtremesTest, ApplyDepthBiasAtTheEndsOfTheDepthRange) {
+  ShaderFunction<float(float, float, bool)> apply(kBias, "apply_depth_bias");
+  std::vector<std::tuple<float, float, bool>> cases;
+  for (bool reverse_z : {true, false}) {
+    for (float depth :
+         {0.0f, -0.0f, 1.0f, std::nextafter(1.0f, 0.0f), 1e-7f, 0.5f, L::min(), kInf, -kInf}) {
+      for (float bias : {0.0f, 1e-7f, 0.01f, 1.0f}) cases.emplace_back(depth, bias, reverse_z);
+    }
+  }
+  const auto got = apply.run(cases);
+  std::vector<float> want;
+  for (const auto& [d, b, rz] : cases) want.push_back(ref::apply_depth_bias(d, b, rz));
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::exact(),
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
+  // Not clamped: a reverse-Z receiver at the near plane biased past 1 stays past 1.
+  EXPECT_EQ(apply(1.0f, 0.01f, true), 1.01f);
+  EXPECT_EQ(apply(0.0f, 0.01f, false), -0.01f);
+}
+
+}  // namespace
+}  // namespace penumbra::testing

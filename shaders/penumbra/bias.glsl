@@ -1,0 +1,142 @@
+// Shadow-map biases: normal offset (world space), slope-scaled depth bias, receiver-plane depth
+// bias from screen-space gradients passed in as arguments (Isidoro 2006), and applying a depth
+// bias in either depth convention. Every function is pure. No #version here: include this from a
+// stage file.
+//
+// Conventions:
+// - `normal` need not be unit length; `to_light` is the direction *towards* the light (for a
+//   directional light ShadowGpu.light_dir_angular.xyz), need not be unit length either.
+// - theta is the angle between the normal and the light direction, cos(theta) = N.L. Back faces
+//   (N.L <= 0) are treated as grazing (theta = 90 degrees): the largest normal offset, and the
+//   maximum slope-scaled bias.
+// - Depth biases are positive amounts that move the receiver *towards the light*;
+//   apply_depth_bias turns one into a depth in either convention (reverse-Z: near = 1).
+
+#ifndef PENUMBRA_BIAS_GLSL
+#define PENUMBRA_BIAS_GLSL
+
+// Smallest normal float. A squared vector length below it (zero, or a denormal the GPU may flush
+// to zero) makes the vector degenerate; an N.L below it makes tan(theta) unbounded.
+const float kBiasMinNormal = 1.175494351e-38;
+
+// A uv Jacobian whose determinant is within this fraction of its two products
+// (|det| <= kReceiverPlaneMinDet * (|du/dx dv/dy| + |du/dy dv/dx|)) is treated as singular: the
+// screen-space footprint is edge-on in the shadow map and the plane's gradient is meaningless.
+// At this threshold, rounding in the determinant (a few float ULPs of the products) changes the
+// gradient by at most ~0.1%.
+const float kReceiverPlaneMinDet = 1.0e-4;
+
+// Vulkan guarantees the 2.5 ULP accuracy of x / y only for |y| in [2^-126, 2^126] (a GPU may
+// divide by multiplying with a reciprocal, which flushes to 0 beyond). Divisors above this,
+// 2^100, are first scaled by 2^-64 together with their dividends (exact: a power of two).
+const float kBiasLargeDivisor = 1.2676506e30;
+
+// Returns true when x is neither NaN nor an infinity (tested on the bits: drivers may assume
+// comparisons never see a NaN or an infinity, integer operations are never folded that way).
+bool bias_is_finite(float x) {
+  return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u;
+}
+
+// Returns true when x is NaN (tested on the bits, like bias_is_finite).
+bool bias_is_nan(float x) {
+  return (floatBitsToUint(x) & 0x7fffffffu) > 0x7f800000u;
+}
+
+// Returns true when every component of v is finite.
+bool bias_is_finite(vec3 v) {
+  return bias_is_finite(v.x) && bias_is_finite(v.y) && bias_is_finite(v.z);
+}
+
+// Returns sin(theta) in [0, 1] between normal and to_light: |N x L| for unit N, L when N.L > 0,
+// and 1 (grazing) when N.L <= 0, when to_light is degenerate (zero, denormal or non-finite) and
+// when normal is degenerate (the offset along a degenerate normal is zero anyway).
+float normal_offset_scale(vec3 normal, vec3 to_light) {
+  float nn = dot(normal, normal);
+  float ll = dot(to_light, to_light);
+  if (!(nn >= kBiasMinNormal) || !(ll >= kBiasMinNormal) || !bias_is_finite(nn) ||
+      !bias_is_finite(ll)) {
+    return 1.0;
+  }
+  vec3 n = normal * inversesqrt(nn);
+  vec3 l = to_light * inversesqrt(ll);
+  if (!(dot(n, l) > 0.0)) return 1.0;
+  // |N x L| rather than sqrt(1 - (N.L)^2): accurate near theta = 0, where N.L rounds to 1.
+  // sqrt is 1 / inversesqrt in Vulkan, and inversesqrt(0) is undefined: 0 is handled apart.
+  vec3 c = cross(n, l);
+  float cc = dot(c, c);
+  return cc > 0.0 ? min(sqrt(cc), 1.0) : 0.0;
+}
+
+// Returns the world-space offset to add to a receiver's position before projecting it into the
+// shadow map: normalize(normal) * offset_texels * texel_world_size * sin(theta), theta the angle
+// to the light (normal_offset_scale: 0 facing the light, the full offset at grazing angles and on
+// back faces; finite at N.L = 0). vec3(0) for a degenerate normal (zero, denormal length or
+// non-finite). texel_world_size is the cascade's CascadeGpu.params.x.
+vec3 normal_offset(vec3 normal, vec3 to_light, float texel_world_size, float offset_texels) {
+  float nn = dot(normal, normal);
+  if (!(nn >= kBiasMinNormal) || !bias_is_finite(nn)) return vec3(0.0);
+  float distance = offset_texels * texel_world_size * normal_offset_scale(normal, to_light);
+  return normal * (inversesqrt(nn) * distance);
+}
+
+// Returns min(constant_bias + slope_scale * tan(theta), max_bias) with cos(theta) = n_dot_l
+// (clamped to at most 1); max_bias when n_dot_l <= 0 (back face or grazing), NaN, or below
+// FLT_MIN, where tan(theta) is unbounded. Never NaN or infinite for finite parameters. The result
+// is in the units of constant_bias and max_bias (depth units, or world units along the light).
+float slope_scaled_bias(float n_dot_l, float constant_bias, float slope_scale, float max_bias) {
+  if (bias_is_nan(n_dot_l) || !(n_dot_l >= kBiasMinNormal)) return max_bias;
+  float c = min(n_dot_l, 1.0);  // also maps +Inf to 1
+  // tan(acos(c)) = sqrt(1 - c^2) / c, with 1 - c^2 factored to stay accurate near c = 1. With
+  // c >= FLT_MIN the quotient is at most 1 / FLT_MIN, finite; the product may overflow to +Inf,
+  // which min() clamps to max_bias.
+  float tan_theta = sqrt(max((1.0 - c) * (1.0 + c), 0.0)) / c;
+  return min(constant_bias + slope_scale * tan_theta, max_bias);
+}
+
+// Returns (dz/du, dz/dv), the depth gradient of the receiver plane in shadow-map uv, from the
+// screen-space derivatives of the receiver's shadow coordinate (u, v, depth) along screen x
+// (coord_ddx) and y (coord_ddy) (Isidoro 2006, "Shadow Mapping: GPU-based Tips and Techniques"):
+// with J = [du/dx du/dy; dv/dx dv/dy], (dz/du, dz/dv) = (dz/dx, dz/dy) J^-1. vec2(0) (no
+// receiver-plane bias) when J is singular (see kReceiverPlaneMinDet), when its products
+// du/dx dv/dy and du/dy dv/dx or its determinant underflow (< FLT_MIN) or overflow, when any input
+// is not finite, or when the gradient overflows. The gradient is in the depth convention of the
+// coords (no sign change is needed for reverse-Z).
+vec2 receiver_plane_depth_gradient(vec3 coord_ddx, vec3 coord_ddy) {
+  if (!bias_is_finite(coord_ddx) || !bias_is_finite(coord_ddy)) return vec2(0.0);
+  float ad = coord_ddx.x * coord_ddy.y;  // du/dx * dv/dy
+  float bc = coord_ddy.x * coord_ddx.y;  // du/dy * dv/dx
+  float size = abs(ad) + abs(bc);
+  // Products that underflow (denormal or zero: flushed on some GPUs, not on others) or overflow
+  // carry no usable determinant.
+  if (!(size >= kBiasMinNormal) || !bias_is_finite(size)) return vec2(0.0);
+  float det = ad - bc;
+  // A determinant below FLT_MIN is outside the divide's accurate range (and flushed by some GPUs).
+  if (!(abs(det) > kReceiverPlaneMinDet * size) || !(abs(det) >= kBiasMinNormal)) {
+    return vec2(0.0);
+  }
+  vec2 numerator = vec2(coord_ddy.y * coord_ddx.z - coord_ddx.y * coord_ddy.z,
+                        coord_ddx.x * coord_ddy.z - coord_ddy.x * coord_ddx.z);
+  if (abs(det) > kBiasLargeDivisor) {
+    numerator = ldexp(numerator, ivec2(-64));
+    det = ldexp(det, -64);
+  }
+  vec2 gradient = numerator / det;
+  if (!bias_is_finite(gradient.x) || !bias_is_finite(gradient.y)) return vec2(0.0);
+  return gradient;
+}
+
+// Returns the depth of the receiver plane at a filter tap offset by uv_offset from the centre,
+// relative to the centre's depth: dot(gradient, uv_offset), gradient from
+// receiver_plane_depth_gradient. Add it to the receiver's depth before comparing at that tap.
+float receiver_plane_depth_offset(vec2 gradient, vec2 uv_offset) {
+  return dot(gradient, uv_offset);
+}
+
+// Returns depth moved towards the light by bias (a positive amount in depth units): depth + bias
+// under reverse-Z (near = 1, larger is closer), depth - bias under standard depth (near = 0).
+// Not clamped: D32_SFLOAT compare references are not clamped to [0, 1] either.
+float apply_depth_bias(float depth, float bias, bool reverse_z) {
+  return reverse_z ? depth + bias : depth - bias;
+}
+
+#endif  // PENUMBRA_BIAS_GLSL
