@@ -1,0 +1,375 @@
+// Function-level tests of shaders/penumbra/vsm.glsl: stored moments, the Chebyshev bound,
+// light-bleed reduction, VSM, EVSM2 and EVSM4 against the double-precision reference of
+// reference/filter_ref.hpp in both depth conventions; invariants (range, monotonic in receiver
+// depth); and a known configuration through a filtered moment texture built from host depths.
+//
+// Tolerances. The Chebyshev bound is ill-conditioned where the variance and the distance to the
+// mean are both small, so a fixed tolerance would be either loose or wrong. Each case gets an
+// interval instead: the reference is evaluated at the ends of the input ranges that the GPU's
+// rounding can reach, and the bound is monotonic in each (increasing in the variance, decreasing
+// in the distance to the mean; light-bleed reduction is monotonic), so the interval is rigorous.
+// The rounding follows the Vulkan spec's precision table: +, -, * correctly rounded (a variance
+// m2 - m1^2 off by at most 2^-23 (m1^2 + |m2|)), sqrt about 5 ULP (inherited from inversesqrt
+// and division), exp(x) within 3 + 2|x| ULP plus the rounding of its argument c * (2 f - 1)
+// (|c| * 2^-22 absolute, i.e. that many ULP of the result); the final 1 / (1 + (d / sigma)^2)
+// and the bleed step (divisions, 2.5 ULP each) get 2e-6 absolute on top.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <memory>
+#include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/generators.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
+#include <tuple>
+#include <vector>
+
+#include "reference/filter_ref.hpp"
+
+namespace penumbra::testing {
+namespace {
+
+namespace ref = penumbra::filter_ref;
+
+constexpr double kUlp = 0x1p-23;  // float ULP at 1 (relative spacing bound)
+
+struct Interval {
+  double lo, hi;
+};
+
+// f(v, d) = v / (v + d^2) for d > 0, 1 for d <= 0.
+double bound_at(double v, double d) {
+  if (d <= 0.0) return 1.0;
+  const double den = v + d * d;
+  return den <= 0.0 ? 0.0 : v / den;
+}
+
+// The interval of the Chebyshev bound when the variance may be off by dv, the distance to the
+// mean by dd, and the minimum variance lies in [mv_lo, mv_hi].
+Interval chebyshev_interval(double m1, double m2, double t, double mv_lo, double mv_hi, double dd) {
+  const double d = t - m1;
+  if (d <= 0.0) return {1.0, 1.0};  // float subtraction keeps the sign: this branch is exact
+  const double raw = m2 - m1 * m1;
+  // The float product and difference, then sqrt (about 5 ULP, i.e. 10 ULP of the variance) on
+  // the way to d / sigma.
+  const double dv = 2.0 * kUlp * (m1 * m1 + std::abs(m2)) + 12.0 * kUlp * std::abs(raw);
+  const double v_lo = std::max(raw - dv, std::max(mv_lo, 0.0));
+  const double v_hi = std::max(raw + dv, std::max(mv_hi, 0.0));
+  return {bound_at(v_lo, d + dd), bound_at(v_hi, std::max(d - dd, 0.0))};
+}
+
+Interval bleed_interval(Interval p, double amount) {
+  return {ref::reduce_light_bleeding(p.lo, amount), ref::reduce_light_bleeding(p.hi, amount)};
+}
+
+// expected[i] = actual[i] clamped into [lo - slack, hi + slack] (the midpoint for a NaN actual),
+// so an exact comparison passes inside the interval and a failure reports the violated end.
+std::vector<float> clamp_into(const std::vector<Interval>& iv, const std::vector<float>& got,
+                              double slack) {
+  std::vector<float> out;
+  for (size_t i = 0; i < iv.size(); ++i) {
+    const double lo = iv[i].lo - slack, hi = iv[i].hi + slack;
+    out.push_back(std::isnan(got[i]) ? float(0.5 * (lo + hi))
+                                     : float(std::clamp(double(got[i]), lo, hi)));
+  }
+  return out;
+}
+
+// The warp of a receiver on the GPU: relative error of exp(c x) with its argument's rounding.
+double warp_rel_error(double c) {
+  return (3.0 + 2.0 * c + 2.0 * c + 4.0) * kUlp;
+}
+
+using VsmFn = ShaderFunction<float(glm::vec2, float, float, float, bool)>;
+using Evsm2Fn = ShaderFunction<float(glm::vec2, float, float, float, float, bool)>;
+using Evsm4Fn = ShaderFunction<float(glm::vec4, float, glm::vec2, float, float, bool)>;
+
+class VsmTest : public GpuTest {};
+
+TEST_F(VsmTest, MomentsAreDepthAndDepthSquared) {
+  Rng rng(401);
+  ShaderFunction<glm::vec2(float)> f("penumbra/vsm.glsl", "vsm_moments");
+  std::vector<std::tuple<float>> cases = {{0.0f}, {1.0f}, {0.5f}, {-0.25f}, {1.5f}};
+  for (int i = 0; i < 4000; ++i) cases.emplace_back(float(rng.next_unit()));
+  std::vector<glm::vec2> want;
+  for (auto [d] : cases) {
+    const float c = std::clamp(d, 0.0f, 1.0f);
+    want.emplace_back(c, c * c);  // float multiply: correctly rounded on the GPU too
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, f.run(cases), Tolerance::ulps(0, 1e-37));
+}
+
+// EVSM moments: (w+, w+^2, w-, w-^2) with w+ = exp(c+ x), w- = -exp(-c- x), x = 2 f - 1 and f
+// the distance from the light (1 - depth under reverse-Z). exp is within 3 + 2|x| ULP and its
+// argument rounds (2 |c| ULP): up to ~180 ULP for c = 42, twice that squared; 1e-4 relative.
+TEST_F(VsmTest, EvsmMomentsWarpTheDistanceFromTheLight) {
+  Rng rng(402);
+  ShaderFunction<glm::vec4(float, glm::vec2, bool)> f("penumbra/vsm.glsl", "evsm_moments");
+  std::vector<std::tuple<float, glm::vec2, bool>> cases;
+  std::vector<glm::vec4> want;
+  for (int i = 0; i < 4000; ++i) {
+    const float d = i < 8 ? float(i % 2) : float(rng.next_unit());
+    const glm::vec2 c(float(42.0 * rng.next_unit()), float(42.0 * rng.next_unit()));
+    const bool reverse_z = i % 2 == 0;
+    cases.emplace_back(d, c, reverse_z);
+    const double wp = ref::evsm_positive(d, c.x, reverse_z);
+    const double wn = ref::evsm_negative(d, c.y, reverse_z);
+    want.emplace_back(float(wp), float(wp * wp), float(wn), float(wn * wn));
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, f.run(cases), Tolerance::relative(1e-4),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+TEST_F(VsmTest, LightBleedReductionIsLinstep) {
+  Rng rng(403);
+  ShaderFunction<float(float, float)> f("penumbra/vsm.glsl", "vsm_reduce_light_bleeding");
+  std::vector<std::tuple<float, float>> cases;
+  std::vector<float> want;
+  for (int i = 0; i < 4000; ++i) {
+    const float p = float(rng.next_unit());
+    const float a = i % 10 == 0 ? 0.0f : float(0.9 * rng.next_unit());
+    cases.emplace_back(p, a);
+    want.push_back(float(std::clamp((double(p) - a) / (1.0 - a), 0.0, 1.0)));
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, f.run(cases), Tolerance::absolute(1e-6));
+}
+
+// Random moments: mixtures of 1..3 depths (as a filtered map would hold), receivers anywhere.
+struct VsmCase {
+  glm::vec2 moments;
+  float receiver, min_variance, bleed;
+  bool reverse_z;
+};
+
+TEST_F(VsmTest, VsmMatchesChebyshevReferenceBothConventions) {
+  Rng rng(404);
+  VsmFn f("penumbra/vsm.glsl", "vsm_shadow");
+  std::vector<std::tuple<glm::vec2, float, float, float, bool>> cases;
+  std::vector<Interval> iv;
+  size_t partial = 0;
+  for (int i = 0; i < 6000; ++i) {
+    const int k = 1 + int(rng.below(3));
+    double m1 = 0, m2 = 0, wsum = 0;
+    for (int j = 0; j < k; ++j) {
+      const double w = 0.1 + rng.next_unit(), d = rng.next_unit();
+      m1 += w * d;
+      m2 += w * d * d;
+      wsum += w;
+    }
+    const glm::vec2 m(float(m1 / wsum), float(m2 / wsum));
+    const float t = float(rng.next_unit());
+    const float mv = i % 4 == 0 ? 0.0f : float(std::pow(10.0, -6.0 + 3.0 * rng.next_unit()));
+    const float bleed = i % 3 == 0 ? 0.0f : float(0.5 * rng.next_unit());
+    const bool reverse_z = i % 2 == 0;
+    cases.emplace_back(m, t, mv, bleed, reverse_z);
+    // Reverse-Z: the bound on -depth.
+    const double s = reverse_z ? -1.0 : 1.0;
+    const double d = s * t - s * m.x;
+    // The minimum variance reaches the GPU as sqrt(mv): a few ULP of it either way.
+    const Interval p = chebyshev_interval(s * m.x, m.y, s * t, mv * (1 - 16 * kUlp),
+                                          mv * (1 + 16 * kUlp), kUlp * std::abs(d));
+    iv.push_back(bleed_interval(p, bleed));
+    partial += iv.back().lo > 0.01 && iv.back().hi < 0.99;
+  }
+  const auto got = f.run(cases);
+  PENUMBRA_EXPECT_ALL_NEAR(clamp_into(iv, got, 2e-6), got, Tolerance::exact(),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+  EXPECT_GT(partial, cases.size() / 10);  // plenty of cases between lit and shadowed
+}
+
+// Random EVSM moments: mixtures of 1..3 depths warped in double, rounded to float, and a receiver
+// anywhere; EVSM2 uses the positive warp's pair, EVSM4 both.
+TEST_F(VsmTest, EvsmMatchesChebyshevReferenceBothConventions) {
+  Rng rng(405);
+  Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
+  Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
+  std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> c2;
+  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> c4;
+  std::vector<Interval> iv2, iv4;
+  size_t partial = 0;
+  for (int i = 0; i < 6000; ++i) {
+    const bool reverse_z = i % 2 == 0;
+    const bool fp16 = i % 3 == 0;
+    const double cmax = ref::evsm_max_exponent(fp16);
+    const glm::vec2 c(float(cmax * (0.2 + 0.8 * rng.next_unit())),
+                      float(cmax * (0.2 + 0.8 * rng.next_unit())));
+    const int k = 1 + int(rng.below(3));
+    glm::dvec4 m(0.0);
+    double wsum = 0;
+    for (int j = 0; j < k; ++j) {
+      const double w = 0.1 + rng.next_unit(), d = rng.next_unit();
+      const double wp = ref::evsm_positive(d, c.x, reverse_z);
+      const double wn = ref::evsm_negative(d, c.y, reverse_z);
+      m += w * glm::dvec4(wp, wp * wp, wn, wn * wn);
+      wsum += w;
+    }
+    const glm::vec4 mf(m / wsum);
+    const float t = float(rng.next_unit());
+    const float mv = float(std::pow(10.0, -7.0 + 3.0 * rng.next_unit()));
+    const float bleed = i % 3 == 1 ? 0.0f : float(0.4 * rng.next_unit());
+    c2.emplace_back(glm::vec2(mf.x, mf.y), t, c.x, mv, bleed, reverse_z);
+    c4.emplace_back(mf, t, c, mv, bleed, reverse_z);
+
+    // The receiver's warps and their error ranges on the GPU.
+    const double wp = ref::evsm_positive(t, c.x, reverse_z);
+    const double wn = ref::evsm_negative(t, c.y, reverse_z);
+    const double ep = warp_rel_error(c.x) * std::abs(wp), en = warp_rel_error(c.y) * std::abs(wn);
+    // Minimum variance in warped space: min_variance (2 c w)^2, its w within the error range.
+    auto mv_range = [&](double cc, double w, double e) {
+      const double lo = std::max(std::abs(w) - e, 0.0), hi = std::abs(w) + e;
+      return std::pair{mv * 4 * cc * cc * lo * lo * (1 - 16 * kUlp),
+                       mv * 4 * cc * cc * hi * hi * (1 + 16 * kUlp)};
+    };
+    const auto [pl, ph] = mv_range(c.x, wp, ep);
+    const auto [nl, nh] = mv_range(c.y, wn, en);
+    const Interval pos =
+        chebyshev_interval(mf.x, mf.y, wp, pl, ph, ep + kUlp * std::abs(wp - mf.x));
+    const Interval neg =
+        chebyshev_interval(mf.z, mf.w, wn, nl, nh, en + kUlp * std::abs(wn - mf.z));
+    iv2.push_back(bleed_interval(pos, bleed));
+    iv4.push_back(bleed_interval({std::min(pos.lo, neg.lo), std::min(pos.hi, neg.hi)}, bleed));
+    partial += iv4.back().lo > 0.01 && iv4.back().hi < 0.99;
+  }
+  const auto got2 = evsm2.run(c2);
+  const auto got4 = evsm4.run(c4);
+  PENUMBRA_EXPECT_ALL_NEAR(clamp_into(iv2, got2, 2e-6), got2, Tolerance::exact(),
+                           [&](size_t i) { return format_tuple(c2[i]); });
+  PENUMBRA_EXPECT_ALL_NEAR(clamp_into(iv4, got4, 2e-6), got4, Tolerance::exact(),
+                           [&](size_t i) { return format_tuple(c4[i]); });
+  EXPECT_GT(partial, c4.size() / 20);
+  // The intervals are tight where it matters: most are narrower than 1e-3.
+  size_t narrow = 0;
+  for (const auto& v : iv4) narrow += v.hi - v.lo < 1e-3;
+  EXPECT_GT(narrow, iv4.size() * 9 / 10);
+}
+
+// Factors lie in [0, 1] and never grow as the receiver moves away from the light (for fixed
+// moments); 1e-6 of slack for the non-correctly-rounded division.
+TEST_F(VsmTest, FactorsInUnitIntervalAndMonotonicInReceiverDepth) {
+  Rng rng(406);
+  VsmFn vsm("penumbra/vsm.glsl", "vsm_shadow");
+  Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
+  Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  constexpr int kSteps = 32;
+  for (bool reverse_z : {true, false}) {
+    std::vector<std::tuple<glm::vec2, float, float, float, bool>> cv;
+    std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> c2;
+    std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> c4;
+    for (int p = 0; p < 200; ++p) {
+      // Two depths mixed, moments built by the GPU functions themselves.
+      const float d0 = float(rng.next_unit()), d1 = float(rng.next_unit());
+      const float w = float(rng.next_unit());
+      const glm::vec2 c(float(5.54 * rng.next_unit()), float(5.54 * rng.next_unit()));
+      const auto m = moments.run(
+          std::vector<std::tuple<float, glm::vec2, bool>>{{d0, c, reverse_z}, {d1, c, reverse_z}});
+      const glm::vec4 m4 = (1.0f - w) * m[0] + w * m[1];
+      const glm::vec2 mv2((1.0f - w) * d0 + w * d1, (1.0f - w) * d0 * d0 + w * d1 * d1);
+      const float mv = 1e-5f, bleed = p % 2 ? 0.0f : 0.2f;
+      for (int k = 0; k < kSteps; ++k) {
+        const float f = float(k) / (kSteps - 1);  // distance from the light
+        const float depth = reverse_z ? 1.0f - f : f;
+        cv.emplace_back(mv2, depth, mv, bleed, reverse_z);
+        c2.emplace_back(glm::vec2(m4), depth, c.x, mv, bleed, reverse_z);
+        c4.emplace_back(m4, depth, c, mv, bleed, reverse_z);
+      }
+    }
+    const std::vector<std::vector<float>> results = {vsm.run(cv), evsm2.run(c2), evsm4.run(c4)};
+    for (size_t fn = 0; fn < results.size(); ++fn) {
+      const auto& got = results[fn];
+      size_t bad_range = 0, bad_order = 0;
+      for (size_t i = 0; i < got.size(); ++i) {
+        if (!(got[i] >= 0.0f && got[i] <= 1.0f)) ++bad_range;
+        if (i % kSteps != 0 && got[i] > got[i - 1] + 1e-6f) ++bad_order;
+      }
+      EXPECT_EQ(bad_range, 0u) << "function " << fn << " reverse_z " << reverse_z;
+      EXPECT_EQ(bad_order, 0u) << "function " << fn << " reverse_z " << reverse_z;
+    }
+  }
+}
+
+// A known configuration through a real moment texture: a half-plane occluder (texels x < 32 at
+// the blocker depth, the rest at the receiver plane's depth), moments built from the host depths
+// by vsm_moments / evsm_moments, stored in an RG32 / RGBA32 float texture and sampled with
+// linear filtering. Halfway between texel centres 31 and 32 the filter averages the two moments
+// (weight 1/2 is exact at any sub-texel precision): two equally weighted depths a distance D
+// apart have variance D^2 / 4 and the receiver lies D / 2 from the mean, so the bound is
+// exactly 1/2, for VSM and both EVSM warps. On the lit side (a texel centre) the receiver equals
+// the mean: 1. On the shadowed side the variance is the minimum: mv / (mv + D^2).
+TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
+  const int width = 64, height = 4, edge = 32;
+  for (bool reverse_z : {true, false}) {
+    const float receiver = reverse_z ? 0.3f : 0.7f, blocker = reverse_z ? 0.6f : 0.4f;
+    std::vector<float> depths(size_t(width * height));
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x) depths[size_t(y * width + x)] = x < edge ? blocker : receiver;
+    ShaderFunction<glm::vec2(float)> vsm_moments("penumbra/vsm.glsl", "vsm_moments");
+    ShaderFunction<glm::vec4(float, glm::vec2, bool)> evsm_moments("penumbra/vsm.glsl",
+                                                                   "evsm_moments");
+    const glm::vec2 c(5.54f, 5.54f);  // fp16-safe exponents
+    std::vector<std::tuple<float>> vin;
+    std::vector<std::tuple<float, glm::vec2, bool>> ein;
+    for (float d : depths) {
+      vin.emplace_back(d);
+      ein.emplace_back(d, c, reverse_z);
+    }
+    std::vector<float> rg, rgba;
+    for (const auto& m : vsm_moments.run(vin)) rg.insert(rg.end(), {m.x, m.y});
+    for (const auto& m : evsm_moments.run(ein)) rgba.insert(rgba.end(), {m.x, m.y, m.z, m.w});
+    FloatTextureDesc desc;
+    desc.width = width;
+    desc.height = height;
+    desc.sampler.filter = VK_FILTER_LINEAR;
+    desc.channels = 2;
+    auto rg_tex = make_float_texture(desc, rg);
+    desc.channels = 4;
+    auto rgba_tex = make_float_texture(desc, rgba);
+
+    ShaderFunction<float(Sampler2D, glm::vec3, float, float, bool)> vsm("penumbra/vsm.glsl",
+                                                                        "vsm_sample_shadow");
+    ShaderFunction<float(Sampler2D, glm::vec3, float, float, float, bool)> evsm2(
+        "penumbra/vsm.glsl", "evsm2_sample_shadow");
+    ShaderFunction<float(Sampler2D, glm::vec3, glm::vec2, float, float, bool)> evsm4(
+        "penumbra/vsm.glsl", "evsm4_sample_shadow");
+    vsm.bind(0, rg_tex);
+    evsm2.bind(0, rg_tex);  // .xy of the EVSM4 moments is the EVSM2 pair: bind that too below
+    evsm4.bind(0, rgba_tex);
+    const float mv = 1e-6f;
+    const float u_edge = float(edge) / width, u_lit = (edge + 8.5f) / width,
+                u_dark = (edge - 8.5f) / width;
+    const double dist = std::abs(double(receiver) - blocker);
+    const std::vector<float> want = {0.5f, 1.0f, float(mv / (mv + dist * dist))};
+    std::vector<std::tuple<glm::vec3, float, float, bool>> vc;
+    for (float u : {u_edge, u_lit, u_dark})
+      vc.emplace_back(glm::vec3(u, 0.5f, receiver), mv, 0.0f, reverse_z);
+    PENUMBRA_EXPECT_ALL_NEAR(want, vsm.run(vc), Tolerance::absolute(1e-5))
+        << "reverse_z " << reverse_z;
+
+    // EVSM: the edge is 1/2 and the lit side 1; the dark side is tiny (min variance scaled).
+    std::vector<std::tuple<glm::vec3, glm::vec2, float, float, bool>> ec;
+    for (float u : {u_edge, u_lit, u_dark})
+      ec.emplace_back(glm::vec3(u, 0.5f, receiver), c, mv, 0.0f, reverse_z);
+    const auto got4 = evsm4.run(ec);
+    EXPECT_NEAR(got4[0], 0.5f, 1e-4) << "reverse_z " << reverse_z;
+    EXPECT_NEAR(got4[1], 1.0f, 1e-4);
+    EXPECT_LT(got4[2], 0.01f);
+    // EVSM2 from the positive pair only.
+    std::vector<float> rg2;
+    for (size_t i = 0; i < rgba.size(); i += 4) rg2.insert(rg2.end(), {rgba[i], rgba[i + 1]});
+    desc.channels = 2;
+    evsm2.bind(0, make_float_texture(desc, rg2));
+    std::vector<std::tuple<glm::vec3, float, float, float, bool>> e2;
+    for (float u : {u_edge, u_lit, u_dark})
+      e2.emplace_back(glm::vec3(u, 0.5f, receiver), c.x, mv, 0.0f, reverse_z);
+    const auto got2 = evsm2.run(e2);
+    EXPECT_NEAR(got2[0], 0.5f, 1e-4);
+    EXPECT_NEAR(got2[1], 1.0f, 1e-4);
+    EXPECT_LT(got2[2], 0.01f);
+  }
+}
+
+}  // namespace
+}  // namespace penumbra::testing
