@@ -1,0 +1,171 @@
+#pragma once
+
+// A scene: camera, lights, meshes, materials, instances and the shadow techniques with their
+// parameters, as read from a TOML scene file (docs/scenes.md describes the format). Angles here
+// are degrees (as in the file), lengths metres, directions unit vectors in a right-handed, +Y-up
+// world.
+
+#include <cstdint>
+#include <filesystem>
+#include <glm/glm.hpp>
+#include <optional>
+#include <penumbra/scene/mesh.hpp>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace penumbra::scene {
+
+enum class AlphaMode { opaque, masked };
+
+// The alpha mask of a masked material, evaluated at uv * mask_scale (see docs/scenes.md):
+// texture: the red channel of mask_texture; stripes: bars across u (half of each period is cut
+// out); checker: a checkerboard (every other cell cut out); circles: a grid of round holes.
+enum class MaskPattern { none, texture, stripes, checker, circles };
+
+struct Material {
+  std::string name;
+  glm::vec3 albedo{0.8f};
+  AlphaMode alpha = AlphaMode::opaque;
+  MaskPattern mask = MaskPattern::none;  // none <=> alpha == opaque
+  std::filesystem::path mask_texture;    // absolute; set only for MaskPattern::texture
+  glm::vec2 mask_scale{1.0f};            // repetitions of the pattern over uv [0, 1]
+  float alpha_cutoff = 0.5f;             // in (0, 1): mask < cutoff is cut out
+};
+
+struct Instance {
+  std::uint32_t mesh = 0;      // index into Scene::meshes
+  std::uint32_t material = 0;  // index into Scene::materials
+  glm::mat4 transform{1.0f};   // object -> world
+  bool casts_shadows = true;
+};
+
+struct Camera {
+  glm::vec3 position{0.0f, 2.0f, 6.0f};
+  glm::vec3 target{0.0f};
+  glm::vec3 up{0.0f, 1.0f, 0.0f};
+  float fov_y_degrees = 60.0f;  // full vertical field of view, in (0, 180)
+  float near = 0.1f;            // 0 < near < far
+  float far = 500.0f;
+};
+
+struct Sun {
+  // Unit; points FROM the sun TOWARD the scene (the direction the light travels).
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};
+  glm::vec3 color{1.0f};
+  float intensity = 3.0f;
+  float angular_diameter_degrees = 0.53f;  // in [0, 90); 0 = hard shadows
+  bool shadows = true;
+};
+
+struct SpotLight {
+  glm::vec3 position{0.0f};
+  glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit, the cone's axis
+  glm::vec3 color{1.0f};
+  float intensity = 20.0f;
+  float outer_degrees = 30.0f;  // half-angle of the cone, in (0, 90)
+  float inner_degrees = 25.0f;  // full intensity inside, in [0, outer]
+  float range = 20.0f;          // > 0; the light (and its shadow map's far plane) ends here
+  bool shadows = true;
+  std::uint32_t resolution = 1024;
+};
+
+struct PointLight {
+  glm::vec3 position{0.0f};
+  glm::vec3 color{1.0f};
+  float intensity = 20.0f;
+  float range = 20.0f;
+  bool shadows = true;
+  std::uint32_t resolution = 512;  // of each cube face
+};
+
+enum class Filter { hard, pcf, pcss, poisson };
+enum class CascadeFit { box, camera_sphere, slice_sphere };
+
+struct ShadowSettings {
+  Filter filter = Filter::pcf;
+  std::uint32_t cascades = 4;  // sun cascades, in [1, 4]
+  float split_lambda = 0.75f;  // PSSM log/uniform blend, in [0, 1]
+  float max_distance = 60.0f;  // shadows end here (view distance), > 0
+  std::uint32_t resolution = 2048;
+  CascadeFit fit = CascadeFit::slice_sphere;
+  int pcf_radius = 1;                 // PCF kernel radius in texels, in [0, 8]
+  int pcss_quality = 1;               // 0 low, 1 medium, 2 high
+  float blend_band = 0.1f;            // fraction of a cascade blended with the next, in [0, 0.5]
+  float fade_band = 0.1f;             // fraction of max_distance over which shadows fade, [0, 1]
+  float normal_offset_texels = 1.5f;  // >= 0
+  float slope_bias = 2.0f;            // >= 0
+  float constant_bias = 0.0005f;      // >= 0
+  bool reverse_z = true;
+};
+
+struct ContactSettings {
+  std::uint32_t steps = 16;  // 0 = off: no contact-shadow pass
+  float max_distance = 0.3f;
+  float thickness = 0.05f;
+  float intensity = 1.0f;  // in [0, 1]
+};
+
+enum class DebugView { lit, shadow_factor, cascades, contact_mask, texel_density, penumbra };
+
+struct RenderSettings {
+  std::uint32_t width = 1280, height = 720;
+  std::uint32_t frames = 1;
+  DebugView view = DebugView::lit;
+  float exposure = 1.0f;
+};
+
+struct Scene {
+  std::filesystem::path source;  // the file it was read from (as given)
+  std::string name;
+  Camera camera;
+  std::optional<Sun> sun;
+  std::vector<SpotLight> spots;
+  std::vector<PointLight> points;
+  std::vector<Mesh> meshes;  // each used by at least one instance
+  std::vector<Material> materials;
+  std::vector<Instance> instances;
+  ShadowSettings shadows;
+  ContactSettings contact;
+  RenderSettings render;
+
+  // Of all instances, transformed to world space.
+  Bounds world_bounds() const;
+  // Of the instances with casts_shadows.
+  Bounds caster_bounds() const;
+
+  // What the scene requires; the renderer creates passes, images and variants only for these.
+  struct Requirements {
+    bool sun_shadows = false;              // a sun with shadows = true
+    std::uint32_t cascades = 0;            // shadows.cascades if sun_shadows, else 0
+    std::uint32_t spot_shadow_maps = 0;    // spots with shadows = true
+    std::uint32_t point_shadow_cubes = 0;  // points with shadows = true
+    bool contact_pass = false;             // contact.steps > 0 and the scene has a light
+    bool masked_materials = false;         // an instance uses a masked material
+  };
+  Requirements requirements() const;
+};
+
+// Reads and validates a scene file. Throws penumbra::Error with "<file>:<line>: <what>" naming
+// the key and value (unknown keys come with a "did you mean" suggestion).
+Scene load_scene(const std::filesystem::path& file);
+// The same from text: name_for_errors prefixes messages (and is Scene::source), base_dir
+// resolves relative mesh and texture paths.
+Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_for_errors,
+                  const std::filesystem::path& base_dir);
+
+// "default" -> <repo>/scenes/default.toml (the compiled-in scene directory, then ./scenes).
+// Anything with a '/' or a ".toml" suffix, or an existing file, is a path and is returned as
+// is. Throws penumbra::Error listing the shipped scenes when a name is not found.
+std::filesystem::path find_scene(std::string_view name_or_path);
+// The names of the shipped scenes (the compiled-in scene directory's *.toml stems, sorted).
+std::vector<std::string> shipped_scenes();
+
+// The names used in scene files, for printing.
+std::string_view to_string(Filter filter);
+std::string_view to_string(CascadeFit fit);
+std::string_view to_string(DebugView view);
+std::string_view to_string(AlphaMode mode);
+std::string_view to_string(MaskPattern pattern);
+
+}  // namespace penumbra::scene

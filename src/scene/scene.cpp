@@ -1,0 +1,96 @@
+// Scene queries (bounds, requirements) and finding shipped scenes by name.
+
+#include <algorithm>
+#include <penumbra/core/error.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <string>
+#include <system_error>
+
+#ifndef PENUMBRA_SCENE_DIR
+#define PENUMBRA_SCENE_DIR "scenes"
+#endif
+
+namespace penumbra::scene {
+namespace {
+
+namespace fs = std::filesystem;
+
+Bounds instance_bounds(const Scene& scene, bool casters_only) {
+  Bounds bounds;
+  for (const Instance& instance : scene.instances) {
+    if (casters_only && !instance.casts_shadows) continue;
+    if (instance.mesh >= scene.meshes.size()) continue;
+    bounds.extend(transform_bounds(scene.meshes[instance.mesh].bounds, instance.transform));
+  }
+  return bounds;
+}
+
+std::vector<fs::path> scene_dirs() {
+  std::vector<fs::path> dirs{fs::path(PENUMBRA_SCENE_DIR)};
+  if (fs::path("scenes") != dirs.front()) dirs.emplace_back("scenes");
+  return dirs;
+}
+
+}  // namespace
+
+Bounds Scene::world_bounds() const {
+  return instance_bounds(*this, false);
+}
+
+Bounds Scene::caster_bounds() const {
+  return instance_bounds(*this, true);
+}
+
+Scene::Requirements Scene::requirements() const {
+  Requirements r;
+  r.sun_shadows = sun.has_value() && sun->shadows;
+  r.cascades = r.sun_shadows ? shadows.cascades : 0;
+  for (const SpotLight& spot : spots) r.spot_shadow_maps += spot.shadows ? 1 : 0;
+  for (const PointLight& point : points) r.point_shadow_cubes += point.shadows ? 1 : 0;
+  const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
+  r.contact_pass = contact.steps > 0 && has_light;
+  for (const Instance& instance : instances) {
+    if (instance.material < materials.size() &&
+        materials[instance.material].alpha == AlphaMode::masked) {
+      r.masked_materials = true;
+    }
+  }
+  return r;
+}
+
+std::vector<std::string> shipped_scenes() {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const fs::path& dir : scene_dirs()) {
+    for (const auto& entry : fs::directory_iterator(dir, ec)) {
+      if (entry.path().extension() == ".toml") names.push_back(entry.path().stem().string());
+    }
+    if (!names.empty()) break;
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+std::filesystem::path find_scene(std::string_view name_or_path) {
+  const std::string given(name_or_path);
+  if (given.empty()) throw Error("find_scene: empty scene name");
+  std::error_code ec;
+  const bool looks_like_path = given.find('/') != std::string::npos ||
+                               given.find('\\') != std::string::npos ||
+                               fs::path(given).extension() == ".toml";
+  if (looks_like_path || fs::is_regular_file(given, ec)) return fs::path(given);
+  std::string looked;
+  for (const fs::path& dir : scene_dirs()) {
+    const fs::path candidate = dir / (given + ".toml");
+    if (fs::is_regular_file(candidate, ec)) return candidate;
+    looked += (looked.empty() ? "" : ", ") + candidate.string();
+  }
+  std::string available;
+  for (const std::string& name : shipped_scenes()) {
+    available += (available.empty() ? "" : ", ") + name;
+  }
+  throw Error("scene '" + given + "' not found (looked for " + looked +
+              "); shipped scenes: " + (available.empty() ? "none found" : available));
+}
+
+}  // namespace penumbra::scene
