@@ -1,0 +1,223 @@
+#pragma once
+
+// Screen-space contact shadows: a compute pass that copies the depth buffer into an R32F image
+// (shaders/depth_resolve.comp) and marches every pixel's ray towards the directional light
+// through it (shaders/contact_shadows.comp, penumbra/contact_shadows.glsl), writing a mask
+// (R8_UNORM, 1 = lit) that the lighting multiplies into the light's visibility.
+//
+//   render::ContactShadowPassDesc desc;
+//   desc.width = 1280;
+//   desc.height = 720;
+//   desc.settings.step_count = 16;            // 0: the pass creates nothing and records nothing
+//   render::ContactShadowPass pass(ctx, desc);
+//   render::ContactShadowFrame frame;
+//   frame.camera = render::ContactCamera::from(camera, shadow::DepthConvention::reverse_z);
+//   frame.light_dir_view = render::to_contact_view(camera, sun_direction_towards_light);
+//   pass.record(cmd, depth_image, normal_image, frame);   // mask(): SHADER_READ_ONLY_OPTIMAL
+//
+// View space of the pass is shaders/penumbra/depth.glsl's: right-handed, x right, y up, the
+// camera looks down -z (GLM's lookAt), with the Vulkan Y flip in the projection (view +y is the
+// top of the image, uv = ndc * 0.5 + 0.5). Normals in the normal image and the light direction
+// are in this space.
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <glm/glm.hpp>
+#include <memory>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/pipeline.hpp>
+#include <penumbra/gpu/resources.hpp>
+#include <penumbra/shadow/types.hpp>
+#include <string>
+#include <vector>
+
+namespace penumbra::render {
+
+// The most march steps per pixel (kContactMaxSteps in the GLSL).
+inline constexpr std::uint32_t kContactMaxSteps = 64;
+
+// The parameters of one dispatch, mirrored member for member by ContactShadowGpu in
+// shaders/penumbra/contact_shadows.glsl (passed as push constants). The layout is identical
+// under std140, std430 and C++; tests/render/contact_pass_tests.cpp checks every offset against
+// SPIR-V reflection.
+struct alignas(16) ContactShadowGpu {
+  glm::vec4 light_dir;          // xyz: unit direction towards the light (view space); w: 0
+  glm::vec2 extent;             // width, height in pixels
+  float tan_half_fov_y = 1.0f;  // tan(vertical fov / 2)
+  float aspect = 1.0f;          // width / height of the projection
+  float near_plane = 0.1f;      // > 0
+  float far_plane = 0.0f;       // > near_plane; 0 for an infinite far plane
+  float max_distance = 0.0f;
+  float thickness = 0.0f;
+  float depth_bias = 0.0f;
+  float intensity = 0.0f;
+  float step_exponent = 2.0f;
+  float edge_fade = 0.0f;
+  std::uint32_t step_count = 0;
+  std::uint32_t frame = 0;
+  std::uint32_t reverse_z = 1;
+  std::uint32_t reserved = 0;
+};
+static_assert(sizeof(ContactShadowGpu) == 80);
+static_assert(alignof(ContactShadowGpu) == 16);
+static_assert(offsetof(ContactShadowGpu, light_dir) == 0);
+static_assert(offsetof(ContactShadowGpu, extent) == 16);
+static_assert(offsetof(ContactShadowGpu, tan_half_fov_y) == 24);
+static_assert(offsetof(ContactShadowGpu, aspect) == 28);
+static_assert(offsetof(ContactShadowGpu, near_plane) == 32);
+static_assert(offsetof(ContactShadowGpu, far_plane) == 36);
+static_assert(offsetof(ContactShadowGpu, max_distance) == 40);
+static_assert(offsetof(ContactShadowGpu, thickness) == 44);
+static_assert(offsetof(ContactShadowGpu, depth_bias) == 48);
+static_assert(offsetof(ContactShadowGpu, intensity) == 52);
+static_assert(offsetof(ContactShadowGpu, step_exponent) == 56);
+static_assert(offsetof(ContactShadowGpu, edge_fade) == 60);
+static_assert(offsetof(ContactShadowGpu, step_count) == 64);
+static_assert(offsetof(ContactShadowGpu, frame) == 68);
+static_assert(offsetof(ContactShadowGpu, reverse_z) == 72);
+static_assert(offsetof(ContactShadowGpu, reserved) == 76);
+
+// The user-facing parameters, with their defaults (docs/contact-shadows.md explains each).
+struct ContactShadowSettings {
+  // The most steps per pixel, in [0, kContactMaxSteps]; fewer on rays shorter than that many
+  // pixels. 0 disables contact shadows: no pipelines, no images, no dispatch.
+  std::uint32_t step_count = 16;
+  // Ray length in world (view-space) units, >= 0.
+  float max_distance = 0.5f;
+  // How deep an occluder is assumed behind its visible surface, world units, > 0.
+  float thickness = 0.1f;
+  // mask = 1 - intensity * occlusion; in [0, 1].
+  float intensity = 1.0f;
+  // Depth tolerance as a fraction of the receiver's view depth, divided by max(N.L, 0.25);
+  // in [0, 1).
+  float depth_bias = 0.002f;
+  // Steps at t = ((i + noise) / N)^step_exponent; in [1, 8].
+  float step_exponent = 2.0f;
+  // Occlusion fades out over this fraction of the screen at its borders; in [0, 0.5].
+  float edge_fade = 0.05f;
+};
+
+// Throws penumbra::Error naming the field and its value when a setting is out of range.
+void validate(const ContactShadowSettings& settings);
+
+// The projection the depth buffer was rendered with (a perspective one).
+struct ContactCamera {
+  double tan_half_fov_y = 1.0;
+  double aspect = 1.0;  // width / height
+  double near = 0.1;
+  double far = 1000.0;  // may be +infinity
+  shadow::DepthConvention depth = shadow::DepthConvention::reverse_z;
+
+  // From the shadow layer's camera (fov_y, aspect, near, far).
+  static ContactCamera from(const shadow::Camera& camera, shadow::DepthConvention depth);
+};
+
+// Throws penumbra::Error naming the field when the camera is not a valid perspective projection.
+void validate(const ContactCamera& camera);
+
+// The pass's view basis of a camera: rows x (right), y (up, orthogonalized), z (backwards,
+// -forward); right-handed, as GLM's lookAt. view = contact_view_basis(camera) * world.
+glm::dmat3 contact_view_basis(const shadow::Camera& camera);
+// A world-space direction expressed in the pass's view space of `camera` (not normalized).
+glm::dvec3 to_contact_view(const shadow::Camera& camera, const glm::dvec3& world_direction);
+
+// What one record() needs besides the images.
+struct ContactShadowFrame {
+  ContactCamera camera;
+  // Direction towards the light in the pass's view space; normalized by pack (non-zero).
+  glm::dvec3 light_dir_view{0.0, 1.0, 0.0};
+  std::uint32_t frame = 0;  // selects the golden-ratio noise offset
+};
+
+// The push constants of one dispatch. Throws penumbra::Error for invalid settings or camera, a
+// zero or non-finite light direction, or a zero extent.
+ContactShadowGpu pack_contact_shadow(const ContactShadowSettings& settings,
+                                     const ContactShadowFrame& frame, std::uint32_t width,
+                                     std::uint32_t height);
+
+// Which depth reads the march makes. dual in the product; the single-read variants exist so
+// that the tests can show that each read is needed.
+enum class ContactDepthReads { dual, bilinear_only, nearest_only };
+
+struct ContactShadowPassDesc {
+  std::uint32_t width = 0, height = 0;
+  ContactShadowSettings settings;
+  ContactDepthReads reads = ContactDepthReads::dual;
+  // Where contact_shadows.comp, depth_resolve.comp and penumbra/ live; empty: the source tree's
+  // shaders/ directory this library was built from.
+  std::filesystem::path shader_dir;
+};
+
+// The pass. It owns its pipelines, samplers, descriptor sets, the R32F resolved depth and the
+// mask; none of them exists while step_count is 0.
+class ContactShadowPass {
+ public:
+  ContactShadowPass(gpu::Context& ctx, const ContactShadowPassDesc& desc);
+  ~ContactShadowPass();
+  ContactShadowPass(const ContactShadowPass&) = delete;
+  ContactShadowPass& operator=(const ContactShadowPass&) = delete;
+
+  // Whether the pass does anything (settings().step_count > 0).
+  bool enabled() const { return settings_.step_count > 0; }
+  const ContactShadowSettings& settings() const { return settings_; }
+  // Validates and applies new settings; creates the GPU objects when the pass becomes enabled
+  // and destroys them when step_count becomes 0. Must not be called while a command buffer that
+  // this pass recorded is pending.
+  void set_settings(const ContactShadowSettings& settings);
+
+  // Records the depth resolve and the march into cmd (nothing at all when disabled). depth: a
+  // depth (or R32_SFLOAT) image of width x height with SAMPLED usage; normals: a float colour
+  // image of the same size with SAMPLED usage and view-space normals in xyz. Both are moved to
+  // SHADER_READ_ONLY_OPTIMAL; the mask ends in SHADER_READ_ONLY_OPTIMAL. Descriptor sets are
+  // cached per (depth, normals) pair; the images must outlive the recorded commands.
+  void record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
+              const ContactShadowFrame& frame);
+
+  // The mask (R8_UNORM, 1 = lit) and the R32F copy of the depth; nullptr while disabled.
+  gpu::Image* mask() { return mask_.get(); }
+  gpu::Image* resolved_depth() { return resolved_.get(); }
+  // The linear clamp-to-edge sampler the march reads the resolved depth with (VK_NULL_HANDLE
+  // while disabled).
+  VkSampler filtered_sampler() const;
+
+  // Dispatches recorded since construction, and a description of every command the last
+  // record() call made ("barrier ...", "dispatch depth_resolve 40x30x1", ...).
+  std::uint64_t dispatch_count() const { return dispatch_count_; }
+  const std::vector<std::string>& recorded_commands() const { return recorded_; }
+  // Compute pipelines that exist now (0 while disabled, 2 when enabled).
+  std::uint32_t pipeline_count() const;
+  // The push constants of the last recorded march.
+  const ContactShadowGpu& last_params() const { return last_params_; }
+
+  // The SPIR-V of the two stages (compiled at construction; empty while disabled), for
+  // reflection tests.
+  const std::vector<std::uint32_t>& march_spirv() const { return march_spirv_; }
+  const std::vector<std::uint32_t>& resolve_spirv() const { return resolve_spirv_; }
+
+  std::uint32_t width() const { return width_; }
+  std::uint32_t height() const { return height_; }
+
+ private:
+  struct Gpu;
+  void create();
+  void destroy();
+
+  gpu::Context& ctx_;
+  std::uint32_t width_ = 0, height_ = 0;
+  ContactShadowSettings settings_;
+  ContactDepthReads reads_ = ContactDepthReads::dual;
+  std::filesystem::path shader_dir_;
+  std::unique_ptr<Gpu> gpu_;
+  std::unique_ptr<gpu::Image> resolved_;
+  std::unique_ptr<gpu::Image> mask_;
+  std::vector<std::uint32_t> march_spirv_, resolve_spirv_;
+  std::uint64_t dispatch_count_ = 0;
+  std::vector<std::string> recorded_;
+  ContactShadowGpu last_params_{};
+};
+
+// The path of the shader directory compiled into this library (PENUMBRA_SHADER_DIR).
+std::filesystem::path default_shader_dir();
+
+}  // namespace penumbra::render

@@ -1,0 +1,362 @@
+#include <cmath>
+#include <map>
+#include <penumbra/core/error.hpp>
+#include <penumbra/gpu/check.hpp>
+#include <penumbra/render/contact_shadows.hpp>
+#include <penumbra/shader/compiler.hpp>
+#include <span>
+#include <sstream>
+#include <utility>
+
+namespace penumbra::render {
+
+namespace {
+
+constexpr std::uint32_t kGroupSize = 8;  // local_size_x/y of both stages
+
+std::string str(double v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
+}
+
+[[noreturn]] void fail(const std::string& what, const std::string& field, double value,
+                       const std::string& rule) {
+  throw Error(what + "." + field + " = " + str(value) + ": " + rule);
+}
+
+bool has_features(gpu::Context& ctx, VkFormat format, VkFormatFeatureFlags features) {
+  VkFormatProperties props{};
+  vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), format, &props);
+  return (props.optimalTilingFeatures & features) == features;
+}
+
+std::string dispatch_text(const char* name, std::uint32_t x, std::uint32_t y) {
+  return std::string("dispatch ") + name + " " + std::to_string(x) + "x" + std::to_string(y) + "x1";
+}
+
+}  // namespace
+
+std::filesystem::path default_shader_dir() {
+  return PENUMBRA_SHADER_DIR;
+}
+
+void validate(const ContactShadowSettings& s) {
+  const std::string w = "ContactShadowSettings";
+  if (s.step_count > kContactMaxSteps) {
+    fail(w, "step_count", s.step_count,
+         "must be in [0, " + std::to_string(kContactMaxSteps) + "] (0 disables the pass)");
+  }
+  if (!(std::isfinite(s.max_distance) && s.max_distance >= 0.0f)) {
+    fail(w, "max_distance", s.max_distance, "must be finite and >= 0");
+  }
+  if (!(std::isfinite(s.thickness) && s.thickness > 0.0f)) {
+    fail(w, "thickness", s.thickness, "must be finite and > 0");
+  }
+  if (!(s.intensity >= 0.0f && s.intensity <= 1.0f)) {
+    fail(w, "intensity", s.intensity, "must be in [0, 1]");
+  }
+  if (!(s.depth_bias >= 0.0f && s.depth_bias < 1.0f)) {
+    fail(w, "depth_bias", s.depth_bias, "must be in [0, 1)");
+  }
+  if (!(s.step_exponent >= 1.0f && s.step_exponent <= 8.0f)) {
+    fail(w, "step_exponent", s.step_exponent, "must be in [1, 8]");
+  }
+  if (!(s.edge_fade >= 0.0f && s.edge_fade <= 0.5f)) {
+    fail(w, "edge_fade", s.edge_fade, "must be in [0, 0.5]");
+  }
+}
+
+ContactCamera ContactCamera::from(const shadow::Camera& camera, shadow::DepthConvention depth) {
+  ContactCamera c;
+  c.tan_half_fov_y = std::tan(camera.fov_y * 0.5);
+  c.aspect = camera.aspect;
+  c.near = camera.near;
+  c.far = camera.far;
+  c.depth = depth;
+  return c;
+}
+
+void validate(const ContactCamera& c) {
+  const std::string w = "ContactCamera";
+  if (!(std::isfinite(c.tan_half_fov_y) && c.tan_half_fov_y > 0.0)) {
+    fail(w, "tan_half_fov_y", c.tan_half_fov_y, "must be finite and > 0");
+  }
+  if (!(std::isfinite(c.aspect) && c.aspect > 0.0)) {
+    fail(w, "aspect", c.aspect, "must be finite and > 0");
+  }
+  if (!(std::isfinite(c.near) && c.near > 0.0)) {
+    fail(w, "near", c.near, "must be finite and > 0");
+  }
+  if (!(c.far > c.near)) fail(w, "far", c.far, "must be > near (" + str(c.near) + ")");
+  // The GPU sees floats: a finite far plane must stay distinct from the near plane there.
+  const float near_f = static_cast<float>(c.near), far_f = static_cast<float>(c.far);
+  if (!(near_f > 0.0f)) fail(w, "near", c.near, "must be representable as a positive float");
+  if (!std::isinf(far_f) && !(far_f > near_f)) {
+    fail(w, "far", c.far, "must be > near (" + str(c.near) + ") also when rounded to float");
+  }
+  if (c.depth != shadow::DepthConvention::reverse_z &&
+      c.depth != shadow::DepthConvention::standard) {
+    fail(w, "depth", static_cast<double>(c.depth), "must be standard (0) or reverse_z (1)");
+  }
+}
+
+glm::dmat3 contact_view_basis(const shadow::Camera& camera) {
+  const double fl = glm::length(camera.forward);
+  if (!(fl > 0.0) || !std::isfinite(fl)) {
+    throw Error("contact_view_basis: camera.forward must be finite and non-zero");
+  }
+  const glm::dvec3 forward = camera.forward / fl;
+  const glm::dvec3 right_raw = glm::cross(forward, camera.up);
+  const double rl = glm::length(right_raw);
+  if (!(rl > 0.0) || !std::isfinite(rl)) {
+    throw Error("contact_view_basis: camera.up must be finite and not parallel to forward");
+  }
+  const glm::dvec3 right = right_raw / rl;
+  const glm::dvec3 up = glm::cross(right, forward);  // right x up = -forward
+  // Rows x, y, z: view = basis * world (glm is column-major, so transpose the columns).
+  return glm::transpose(glm::dmat3(right, up, -forward));
+}
+
+glm::dvec3 to_contact_view(const shadow::Camera& camera, const glm::dvec3& world_direction) {
+  return contact_view_basis(camera) * world_direction;
+}
+
+ContactShadowGpu pack_contact_shadow(const ContactShadowSettings& settings,
+                                     const ContactShadowFrame& frame, std::uint32_t width,
+                                     std::uint32_t height) {
+  validate(settings);
+  validate(frame.camera);
+  if (width == 0 || height == 0) {
+    throw Error("pack_contact_shadow: extent " + std::to_string(width) + "x" +
+                std::to_string(height) + " must not be empty");
+  }
+  const glm::dvec3 l = frame.light_dir_view;
+  const double len = glm::length(l);
+  if (!(len > 0.0) || !std::isfinite(len)) {
+    throw Error("ContactShadowFrame.light_dir_view = (" + str(l.x) + ", " + str(l.y) + ", " +
+                str(l.z) + "): must be finite and non-zero");
+  }
+  const ContactCamera& c = frame.camera;
+  ContactShadowGpu g;
+  g.light_dir = glm::vec4(glm::vec3(l / len), 0.0f);
+  g.extent = glm::vec2(static_cast<float>(width), static_cast<float>(height));
+  g.tan_half_fov_y = static_cast<float>(c.tan_half_fov_y);
+  g.aspect = static_cast<float>(c.aspect);
+  g.near_plane = static_cast<float>(c.near);
+  const float far_f = static_cast<float>(c.far);  // +inf for an infinite (or huge) far plane
+  g.far_plane = std::isinf(far_f) ? 0.0f : far_f;
+  g.max_distance = settings.max_distance;
+  g.thickness = settings.thickness;
+  g.depth_bias = settings.depth_bias;
+  g.intensity = settings.intensity;
+  g.step_exponent = settings.step_exponent;
+  g.edge_fade = settings.edge_fade;
+  g.step_count = settings.step_count;
+  g.frame = frame.frame;
+  g.reverse_z = c.depth == shadow::DepthConvention::reverse_z ? 1u : 0u;
+  g.reserved = 0;
+  return g;
+}
+
+// ---- the pass ------------------------------------------------------------------------------
+
+struct ContactShadowPass::Gpu {
+  Gpu(gpu::Context& ctx, std::span<const std::uint32_t> resolve_spirv,
+      std::span<const std::uint32_t> march_spirv, gpu::Specialization march_spec)
+      : resolve_layout(
+            ctx, {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                   {1, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}}}),
+        march_layout(
+            ctx,
+            {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+              {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+              {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+              {3, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}}},
+            sizeof(ContactShadowGpu), VK_SHADER_STAGE_COMPUTE_BIT),
+        resolve(ctx, resolve_spirv, resolve_layout),
+        march(ctx, march_spirv, march_layout, std::move(march_spec)),
+        nearest(ctx, gpu::SamplerDesc{}),
+        linear(ctx, gpu::SamplerDesc{VK_FILTER_LINEAR}),
+        pool(ctx, kMaxCachedPairs * 2) {}
+
+  static constexpr std::uint32_t kMaxCachedPairs = 16;
+
+  gpu::PipelineLayout resolve_layout;
+  gpu::PipelineLayout march_layout;
+  gpu::ComputePipeline resolve;
+  gpu::ComputePipeline march;
+  gpu::Sampler nearest;  // texelFetch only; any valid sampler
+  gpu::Sampler linear;   // the bilinear read of the resolved depth
+  gpu::DescriptorPool pool;
+  struct Sets {
+    VkDescriptorSet resolve = VK_NULL_HANDLE;
+    VkDescriptorSet march = VK_NULL_HANDLE;
+  };
+  std::map<std::pair<VkImageView, VkImageView>, Sets> sets;
+};
+
+ContactShadowPass::ContactShadowPass(gpu::Context& ctx, const ContactShadowPassDesc& desc)
+    : ctx_(ctx),
+      width_(desc.width),
+      height_(desc.height),
+      settings_(desc.settings),
+      reads_(desc.reads),
+      shader_dir_(desc.shader_dir.empty() ? default_shader_dir() : desc.shader_dir) {
+  validate(settings_);
+  if (width_ == 0 || height_ == 0) {
+    throw Error("ContactShadowPassDesc: extent " + std::to_string(width_) + "x" +
+                std::to_string(height_) + " must not be empty");
+  }
+  if (enabled()) create();
+}
+
+ContactShadowPass::~ContactShadowPass() {
+  destroy();
+}
+
+void ContactShadowPass::set_settings(const ContactShadowSettings& settings) {
+  validate(settings);
+  const bool was = enabled();
+  settings_ = settings;
+  if (enabled() && !was) create();
+  if (!enabled() && was) destroy();
+}
+
+VkSampler ContactShadowPass::filtered_sampler() const {
+  return gpu_ ? gpu_->linear.handle() : VK_NULL_HANDLE;
+}
+
+std::uint32_t ContactShadowPass::pipeline_count() const {
+  return gpu_ ? 2u : 0u;
+}
+
+void ContactShadowPass::create() {
+  if (!has_features(ctx_, VK_FORMAT_R32_SFLOAT,
+                    VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT |
+                        VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT)) {
+    throw Error("ContactShadowPass: " + ctx_.info().name +
+                " cannot store to and linearly filter R32_SFLOAT images");
+  }
+  if (!has_features(ctx_, VK_FORMAT_R8_UNORM,
+                    VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT)) {
+    throw Error("ContactShadowPass: " + ctx_.info().name + " cannot store to R8_UNORM images");
+  }
+  shader::Compiler compiler(shader::CompileOptions{{shader_dir_}, {}, false});
+  resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
+  march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
+  gpu::Specialization spec;
+  spec.set<std::uint32_t>(0, reads_ != ContactDepthReads::nearest_only ? 1u : 0u);
+  spec.set<std::uint32_t>(1, reads_ != ContactDepthReads::bilinear_only ? 1u : 0u);
+  gpu_ = std::make_unique<Gpu>(ctx_, resolve_spirv_, march_spirv_, std::move(spec));
+
+  gpu::ImageDesc r;
+  r.format = VK_FORMAT_R32_SFLOAT;
+  r.width = width_;
+  r.height = height_;
+  r.usage =
+      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  resolved_ = std::make_unique<gpu::Image>(ctx_, r);
+  gpu::ImageDesc m = r;
+  m.format = VK_FORMAT_R8_UNORM;
+  mask_ = std::make_unique<gpu::Image>(ctx_, m);
+}
+
+void ContactShadowPass::destroy() {
+  gpu_.reset();
+  resolved_.reset();
+  mask_.reset();
+  march_spirv_.clear();
+  resolve_spirv_.clear();
+}
+
+void ContactShadowPass::record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
+                               const ContactShadowFrame& frame) {
+  recorded_.clear();
+  if (!enabled()) return;  // step_count 0: no commands at all
+  const auto check_image = [&](const gpu::Image& image, const char* what) {
+    const gpu::ImageDesc& d = image.desc();
+    if (d.width != width_ || d.height != height_ || d.kind != gpu::ImageKind::image_2d) {
+      throw Error(std::string("ContactShadowPass::record: the ") + what + " image is " +
+                  std::to_string(d.width) + "x" + std::to_string(d.height) +
+                  ", the pass was created for a 2D image of " + std::to_string(width_) + "x" +
+                  std::to_string(height_));
+    }
+    if ((d.usage & VK_IMAGE_USAGE_SAMPLED_BIT) == 0) {
+      throw Error(std::string("ContactShadowPass::record: the ") + what +
+                  " image needs VK_IMAGE_USAGE_SAMPLED_BIT");
+    }
+  };
+  check_image(depth, "depth");
+  check_image(normals, "normal");
+  if (gpu::is_depth_format(depth.desc().format) && gpu::has_stencil(depth.desc().format)) {
+    throw Error("ContactShadowPass::record: depth/stencil formats are not supported (" +
+                std::to_string(depth.desc().format) + "); use a depth-only format");
+  }
+  const ContactShadowGpu params = pack_contact_shadow(settings_, frame, width_, height_);
+
+  // Descriptor sets, cached per (depth, normals) pair.
+  const auto key = std::make_pair(depth.view(), normals.view());
+  auto it = gpu_->sets.find(key);
+  if (it == gpu_->sets.end()) {
+    if (gpu_->sets.size() >= Gpu::kMaxCachedPairs) {
+      // Only reached when many different images are used; sets of earlier pairs may still be
+      // referenced by pending command buffers, which the caller must have waited for.
+      gpu_->sets.clear();
+      gpu_->pool.reset();
+    }
+    Gpu::Sets s;
+    s.resolve = gpu_->pool.allocate(gpu_->resolve_layout.set_layout(0));
+    s.march = gpu_->pool.allocate(gpu_->march_layout.set_layout(0));
+    gpu::DescriptorWriter()
+        .combined_image(0, depth.view(), gpu_->nearest.handle())
+        .storage_image(1, resolved_->view())
+        .update(ctx_, s.resolve);
+    gpu::DescriptorWriter()
+        .combined_image(0, resolved_->view(), gpu_->linear.handle())
+        .combined_image(1, depth.view(), gpu_->nearest.handle())
+        .combined_image(2, normals.view(), gpu_->nearest.handle())
+        .storage_image(3, mask_->view())
+        .update(ctx_, s.march);
+    it = gpu_->sets.emplace(key, s).first;
+  }
+
+  const auto transition = [&](gpu::Image& image, VkImageLayout layout, const char* name) {
+    image.transition(cmd, layout);
+    recorded_.push_back(std::string("barrier ") + name + " -> " +
+                        (layout == VK_IMAGE_LAYOUT_GENERAL ? "GENERAL" : "SHADER_READ_ONLY"));
+  };
+  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
+  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
+
+  if (depth.layout() != VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL) {
+    transition(depth, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "depth");
+  }
+  if (normals.layout() != VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL) {
+    transition(normals, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "normals");
+  }
+  // Always a barrier: it orders this frame's writes after the last frame's reads.
+  transition(*resolved_, VK_IMAGE_LAYOUT_GENERAL, "resolved_depth");
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve.handle());
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve_layout.handle(), 0, 1,
+                          &it->second.resolve, 0, nullptr);
+  vkCmdDispatch(cmd, gx, gy, 1);
+  recorded_.push_back(dispatch_text("depth_resolve", gx, gy));
+  ++dispatch_count_;
+
+  transition(*resolved_, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "resolved_depth");
+  transition(*mask_, VK_IMAGE_LAYOUT_GENERAL, "mask");
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->march.handle());
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->march_layout.handle(), 0, 1,
+                          &it->second.march, 0, nullptr);
+  vkCmdPushConstants(cmd, gpu_->march_layout.handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0,
+                     sizeof(ContactShadowGpu), &params);
+  vkCmdDispatch(cmd, gx, gy, 1);
+  recorded_.push_back(dispatch_text("contact_shadows", gx, gy));
+  ++dispatch_count_;
+  transition(*mask_, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "mask");
+  last_params_ = params;
+}
+
+}  // namespace penumbra::render
