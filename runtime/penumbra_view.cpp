@@ -1,118 +1,211 @@
-// penumbra-view: the Penumbra runtime. Until the renderer lands it prints the device report and
-// runs a compute smoke test (compile → pipeline → dispatch → read back → check), with timings.
+// penumbra-view: the Penumbra runtime. Headless, it renders a scene's frames offscreen, writes
+// PNGs (the lit image and every debug view) and a timings file, and prints what was built and
+// the per-pass GPU timings (timestamp queries, medians over the frames).
 #include <penumbra/core/error.hpp>
-#include <penumbra/gpu/commands.hpp>
-#include <penumbra/gpu/pipeline.hpp>
-#include <penumbra/gpu/resources.hpp>
-#include <penumbra/shader/compiler.hpp>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
 
+#include <algorithm>
 #include <chrono>
-#include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
+#include <fstream>
+#include <map>
 #include <string>
+#include <vector>
 
 namespace {
 
-using Clock = std::chrono::steady_clock;
-double ms_since(Clock::time_point t) {
-  return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
+namespace fs = std::filesystem;
+using penumbra::Error;
+
+struct Options {
+  std::string scene = "default";
+  bool headless = false;
+  uint32_t frames = 0;  // 0: the scene's [render] frames
+  fs::path out;
+  std::string view;  // empty: lit plus every debug view
+  std::string filter;
+  uint32_t width = 0, height = 0;
+  bool list_devices = false;
+};
+
+const std::map<std::string, penumbra::scene::DebugView>& views() {
+  using penumbra::scene::DebugView;
+  static const std::map<std::string, DebugView> v = {
+      {"lit", DebugView::lit},
+      {"shadow_factor", DebugView::shadow_factor},
+      {"cascades", DebugView::cascades},
+      {"contact_mask", DebugView::contact_mask},
+      {"texel_density", DebugView::texel_density},
+      {"penumbra", DebugView::penumbra}};
+  return v;
 }
 
-constexpr const char* kSmokeShader = R"(#version 460
-layout(local_size_x = 256) in;
-layout(std430, binding = 0) readonly buffer In { vec4 p[]; } in_;
-layout(std430, binding = 1) writeonly buffer Out { float d[]; } out_;
-layout(push_constant) uniform Push { uint count; } pc;
-void main() {
-  uint i = gl_GlobalInvocationID.x;
-  if (i >= pc.count) return;
-  out_.d[i] = length(in_.p[i].xyz) * in_.p[i].w;
+const std::map<std::string, penumbra::scene::Filter>& filters() {
+  using penumbra::scene::Filter;
+  static const std::map<std::string, Filter> f = {
+      {"hard", Filter::hard}, {"pcf", Filter::pcf}, {"pcss", Filter::pcss}, {"poisson", Filter::poisson}};
+  return f;
 }
-)";
 
-int run(int argc, char** argv) {
-  bool list = false;
+template <class M>
+std::string keys(const M& m) {
+  std::string s;
+  for (const auto& [k, v] : m) s += (s.empty() ? "" : ", ") + k;
+  return s;
+}
+
+uint32_t parse_uint(const std::string& flag, const std::string& v) {
+  try {
+    size_t used = 0;
+    const unsigned long x = std::stoul(v, &used);
+    if (used != v.size() || x > 100000) throw std::out_of_range(v);
+    return static_cast<uint32_t>(x);
+  } catch (const std::exception&) {
+    throw Error(flag + " " + v + ": expected a whole number");
+  }
+}
+
+void usage() {
+  std::printf(
+      "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
+      "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
+      "  --scene     a shipped scene (default, grazing, space, indoor) or a .toml file\n"
+      "  --headless  render offscreen and write PNGs (the default when there is no display)\n"
+      "  --out       where PNGs and timings go (default out/<scene>)\n"
+      "  --view      %s (default: lit, then every debug view)\n"
+      "  --filter    %s (default: the scene's)\n"
+      "  PENUMBRA_DEVICE=lavapipe|gpu|<index>|<name>, PENUMBRA_VALIDATION=1\n",
+      keys(views()).c_str(), keys(filters()).c_str());
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
-    if (a == "--list-devices") list = true;
-    else if (a == "--headless") {
-    } else if (a == "--help" || a == "-h") {
-      std::printf("usage: penumbra-view [--headless] [--list-devices]\n"
-                  "  PENUMBRA_DEVICE=lavapipe|gpu|<index>|<name>  choose the Vulkan device\n"
-                  "  PENUMBRA_VALIDATION=1                        Khronos validation layer\n");
-      return 0;
-    } else {
-      std::fprintf(stderr, "penumbra-view: unknown argument '%s' (try --help)\n", a.c_str());
-      return 2;
-    }
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw Error(a + ": missing value");
+      return argv[++i];
+    };
+    if (a == "--scene") o.scene = value();
+    else if (a == "--headless") o.headless = true;
+    else if (a == "--frames") o.frames = parse_uint(a, value());
+    else if (a == "--out") o.out = value();
+    else if (a == "--view") {
+      o.view = value();
+      if (!views().count(o.view)) throw Error("--view " + o.view + ": expected one of " + keys(views()));
+    } else if (a == "--filter") {
+      o.filter = value();
+      if (!filters().count(o.filter))
+        throw Error("--filter " + o.filter + ": expected one of " + keys(filters()));
+    } else if (a == "--size") {
+      const std::string v = value();
+      const auto x = v.find('x');
+      if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
+      o.width = parse_uint(a, v.substr(0, x));
+      o.height = parse_uint(a, v.substr(x + 1));
+      if (o.width == 0 || o.height == 0) throw Error("--size " + v + ": both sides must be > 0");
+    } else if (a == "--list-devices") o.list_devices = true;
+    else if (a == "--help" || a == "-h") {
+      usage();
+      std::exit(0);
+    } else throw Error("unknown argument '" + a + "' (try --help)");
   }
-  if (list) {
+  return o;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+int run(int argc, char** argv) {
+  const Options o = parse(argc, argv);
+  if (o.list_devices) {
     std::printf("%s", penumbra::gpu::Context::list_devices().c_str());
     return 0;
   }
-  auto t0 = Clock::now();
+  const bool display = std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
+  if (!o.headless && display) {
+    std::printf("penumbra-view: the interactive window is not built yet; rendering headless\n");
+  }
+
+  const fs::path scene_file = penumbra::scene::find_scene(o.scene);
+  penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
+  if (!o.filter.empty()) scene.shadows.filter = filters().at(o.filter);
+  const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);
+
   penumbra::gpu::Context ctx;
-  const double t_instance = ms_since(t0);
   std::printf("%s", ctx.report().c_str());
+  std::printf("scene:       %s (%s)\n", scene.name.c_str(), scene_file.string().c_str());
 
-  t0 = Clock::now();
-  penumbra::shader::Compiler compiler;
-  const auto shader = compiler.compile_source(kSmokeShader, "smoke.comp",
-                                              penumbra::shader::Stage::compute);
-  const double t_compile = ms_since(t0);
+  const auto t0 = std::chrono::steady_clock::now();
+  penumbra::render::RendererOptions ro;
+  ro.width = o.width;
+  ro.height = o.height;
+  penumbra::render::Renderer renderer(ctx, scene, ro);
+  const double build_ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+  std::printf("\nbuilt for this scene (%.0f ms):\n%s", build_ms, renderer.built().to_string().c_str());
 
-  t0 = Clock::now();
-  penumbra::gpu::PipelineLayout layout(ctx, {{{0}, {1}}}, 4, VK_SHADER_STAGE_COMPUTE_BIT);
-  penumbra::gpu::ComputePipeline pipeline(ctx, shader.spirv, layout);
-  const double t_pipeline = ms_since(t0);
+  const fs::path out = o.out.empty() ? fs::path("out") / scene.name : o.out;
+  fs::create_directories(out);
 
-  const uint32_t n = 1 << 20;
-  std::vector<float> p(size_t{n} * 4);
-  for (uint32_t i = 0; i < n; ++i) {
-    p[i * 4 + 0] = float(i % 1000) * 0.01f;
-    p[i * 4 + 1] = float(i % 7);
-    p[i * 4 + 2] = -2.0f;
-    p[i * 4 + 3] = 0.5f;
+  // Frames for timing, in the scene's own view.
+  std::map<std::string, std::vector<double>> samples;
+  std::vector<std::string> order;
+  for (uint32_t f = 0; f < frames; ++f) {
+    renderer.render(f);
+    for (const auto& t : renderer.timings()) {
+      if (!samples.count(t.name)) order.push_back(t.name);
+      samples[t.name].push_back(t.gpu_ms);
+    }
   }
-  penumbra::gpu::Buffer in(ctx, p.size() * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  penumbra::gpu::Buffer out(ctx, size_t{n} * 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  in.write_span<float>(p);
-  penumbra::gpu::DescriptorPool pool(ctx);
-  VkDescriptorSet set = pool.allocate(layout.set_layout(0));
-  penumbra::gpu::DescriptorWriter().buffer(0, in.handle()).buffer(1, out.handle()).update(ctx, set);
-  penumbra::gpu::TimestampPool ts(ctx, 2);
-  double t_first = 0, gpu_ns = 0;
-  for (int rep = 0; rep < 2; ++rep) {
-    t0 = Clock::now();
-    penumbra::gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) {
-      ts.reset(cmd);
-      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.handle());
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set, 0,
-                              nullptr);
-      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 4, &n);
-      ts.write(cmd, 0);
-      vkCmdDispatch(cmd, (n + 255) / 256, 1, 1);
-      ts.write(cmd, 1);
-    });
-    if (rep == 0) t_first = ms_since(t0);
-    gpu_ns = ts.elapsed_ns(0, 1);
+  std::vector<std::string> written;
+  const std::string first_view = o.view.empty() ? "lit" : o.view;
+  {
+    renderer.set_debug_view(views().at(first_view));
+    renderer.render(frames);
+    const fs::path png = out / (first_view + ".png");
+    penumbra::render::write_png(png, renderer.width(), renderer.height(), renderer.read_rgba8());
+    written.push_back(png.string());
   }
-  const auto d = out.read_vector<float>(n);
-  uint32_t bad = 0;
-  for (uint32_t i = 0; i < n; ++i) {
-    const float want =
-        std::sqrt(p[i * 4] * p[i * 4] + p[i * 4 + 1] * p[i * 4 + 1] + 4.0f) * 0.5f;
-    if (!(std::abs(d[i] - want) <= 1e-5f * std::max(1.0f, want))) ++bad;
+  if (o.view.empty()) {
+    for (const auto& [name, view] : views()) {
+      if (name == "lit") continue;
+      renderer.set_debug_view(view);
+      renderer.render(frames);
+      const fs::path png = out / (name + ".png");
+      penumbra::render::write_png(png, renderer.width(), renderer.height(), renderer.read_rgba8());
+      written.push_back(png.string());
+    }
   }
-  std::printf("smoke test:  %u cases, %u wrong -> %s\n", n, bad, bad == 0 ? "PASS" : "FAIL");
-  std::printf("timings:     instance+device %.1f ms, compile %.1f ms, pipeline %.1f ms, "
-              "first submit %.1f ms, dispatch %.3f ms (GPU timestamps)\n",
-              t_instance, t_compile, t_pipeline, t_first, gpu_ns * 1e-6);
-  const size_t validation = ctx.validation_sink().total_seen();
-  if (ctx.validation_enabled())
-    std::printf("validation:  %zu messages\n", validation);
-  return (bad == 0 && validation == 0) ? 0 : 1;
+
+  std::printf("\nGPU time per pass on %s, %ux%u, median of %u frame(s):\n", ctx.info().name.c_str(),
+              renderer.width(), renderer.height(), frames);
+  std::ofstream csv(out / "timings.csv");
+  csv << "device,scene,width,height,pass,median_ms,frames\n";
+  double total = 0;
+  for (const auto& name : order) {
+    const double m = median(samples[name]);
+    total += m;
+    std::printf("  %-18s %9.3f ms\n", name.c_str(), m);
+    csv << '"' << ctx.info().name << "\"," << scene.name << ',' << renderer.width() << ','
+        << renderer.height() << ',' << name << ',' << m << ',' << frames << "\n";
+  }
+  std::printf("  %-18s %9.3f ms\n", "total", total);
+  std::printf("\nwrote:\n");
+  for (const auto& w : written) std::printf("  %s\n", w.c_str());
+  std::printf("  %s\n", (out / "timings.csv").string().c_str());
+  if (ctx.validation_enabled()) {
+    std::printf("validation:  %zu messages\n", ctx.validation_sink().total_seen());
+    if (ctx.validation_sink().total_seen() != 0) return 1;
+  }
+  return 0;
 }
 
 }  // namespace

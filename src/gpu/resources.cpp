@@ -30,6 +30,8 @@ VkImageViewType view_type(ImageKind kind, uint32_t layers) {
       return VK_IMAGE_VIEW_TYPE_2D_ARRAY;
     case ImageKind::cube:
       return layers > 6 ? VK_IMAGE_VIEW_TYPE_CUBE_ARRAY : VK_IMAGE_VIEW_TYPE_CUBE;
+    case ImageKind::cube_array:
+      return VK_IMAGE_VIEW_TYPE_CUBE_ARRAY;
   }
   return VK_IMAGE_VIEW_TYPE_2D;
 }
@@ -204,13 +206,14 @@ Image::Image(Context& ctx, const ImageDesc& desc) : ctx_(&ctx), desc_(desc) {
                 std::to_string(desc.layers) + " layers, " + std::to_string(desc.mip_levels) +
                 " mips)");
   }
-  if (desc.kind == ImageKind::cube && (desc.layers % 6 != 0 || desc.width != desc.height)) {
+  const bool cube = desc.kind == ImageKind::cube || desc.kind == ImageKind::cube_array;
+  if (cube && (desc.layers % 6 != 0 || desc.width != desc.height)) {
     throw Error("ImageDesc: a cube image needs square faces and a multiple of 6 layers (got " +
                 std::to_string(desc.width) + "x" + std::to_string(desc.height) + ", " +
                 std::to_string(desc.layers) + " layers)");
   }
   VkImageCreateInfo ii{VK_STRUCTURE_TYPE_IMAGE_CREATE_INFO};
-  ii.flags = desc.kind == ImageKind::cube ? VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT : 0;
+  ii.flags = cube ? VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT : 0;
   ii.imageType = VK_IMAGE_TYPE_2D;
   ii.format = desc.format;
   ii.extent = {desc.width, desc.height, 1};

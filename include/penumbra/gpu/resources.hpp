@@ -55,13 +55,13 @@ class Buffer {
   void* mapped_ = nullptr;
 };
 
-enum class ImageKind { image_2d, image_2d_array, cube };
+enum class ImageKind { image_2d, image_2d_array, cube, cube_array };
 
 struct ImageDesc {
   ImageKind kind = ImageKind::image_2d;
   VkFormat format = VK_FORMAT_R8G8B8A8_UNORM;
   uint32_t width = 1, height = 1;
-  uint32_t layers = 1;  // array layers (2D array); cube: 6 (or 6·n for a cube array)
+  uint32_t layers = 1;  // array layers (2D array); cube: 6; cube_array: 6·n
   uint32_t mip_levels = 1;
   VkImageUsageFlags usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
 };

@@ -1,0 +1,72 @@
+#pragma once
+
+// GPU structs of the renderer, declared once here and mirrored in
+// shaders/penumbra/frame_types.glsl; tests/render checks every member against SPIR-V reflection.
+// Only mat4 / vec4 / uvec4 members, so std140 and std430 agree with the C++ layout.
+// Positions are relative to the render origin (the camera), like the shadow structs.
+
+#include <glm/glm.hpp>
+
+#include <cstddef>
+#include <cstdint>
+
+namespace penumbra::render {
+
+inline constexpr uint32_t kMaxSpotLights = 2;
+inline constexpr uint32_t kMaxPointLights = 2;
+
+struct alignas(16) LightGpu {
+  glm::vec4 position_range;    // xyz relative to the render origin; w: range (m)
+  glm::vec4 direction_cos;     // spot: xyz axis (unit), w: cos(outer); point: 0
+  glm::vec4 color_intensity;   // rgb, w: intensity
+  glm::vec4 params;            // x: cos(inner) (spot), y: shadow map index or -1, z, w: 0
+};
+static_assert(sizeof(LightGpu) == 64);
+
+struct alignas(16) FrameGpu {
+  glm::mat4 view;           // (world - origin) -> view
+  glm::mat4 proj;           // view -> clip (reverse-Z when counts.y == 1)
+  glm::mat4 view_proj;
+  glm::mat4 inv_view_proj;  // clip -> (world - origin)
+  glm::vec4 camera_position;  // relative to the origin (0 for a camera-centred origin), w = 1
+  glm::vec4 camera_forward;   // unit, w = 0
+  glm::vec4 sun_direction;    // xyz unit *towards* the sun, w: intensity (0: no sun)
+  glm::vec4 sun_color;        // rgb, w: 1 when the sun casts shadows
+  glm::vec4 ambient;          // rgb sky ambient, w: exposure
+  glm::vec4 viewport;         // width, height, 1 / width, 1 / height
+  glm::vec4 projection;       // near, far, tan(fov_y / 2), aspect
+  glm::vec4 bias;             // normal offset (texels), slope scale, constant bias, max bias
+  glm::vec4 filter_params;           // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
+  // x: frame index; y: depth convention (1 reverse-Z); z: filter (0 hard, 1 pcf, 2 pcss,
+  // 3 poisson); w: debug view (0 lit, 1 shadow factor, 2 cascades, 3 contact mask, 4 texel
+  // density, 5 penumbra)
+  glm::uvec4 mode;
+  glm::uvec4 counts;  // x: spot lights, y: point lights, z: contact pass (0/1), w: 0
+  LightGpu spots[kMaxSpotLights];
+  LightGpu points[kMaxPointLights];
+};
+
+static_assert(offsetof(FrameGpu, view) == 0);
+static_assert(offsetof(FrameGpu, proj) == 64);
+static_assert(offsetof(FrameGpu, view_proj) == 128);
+static_assert(offsetof(FrameGpu, inv_view_proj) == 192);
+static_assert(offsetof(FrameGpu, camera_position) == 256);
+static_assert(offsetof(FrameGpu, mode) == 400);
+static_assert(offsetof(FrameGpu, counts) == 416);
+static_assert(offsetof(FrameGpu, spots) == 432);
+static_assert(offsetof(FrameGpu, points) == 560);
+static_assert(sizeof(FrameGpu) == 688);
+
+// Push constants of every geometry pass.
+struct alignas(16) DrawPush {
+  glm::mat4 model;   // object -> (world - origin)
+  glm::vec4 albedo;  // rgb, w: 1 opaque / 0 masked
+  glm::vec4 mask;    // x: MaskPattern, y: alpha cutoff, zw: mask scale
+  glm::uvec4 index;  // x: cascade layer / cube face / spot index, y: light index
+};
+static_assert(sizeof(DrawPush) == 112);
+static_assert(offsetof(DrawPush, albedo) == 64);
+static_assert(offsetof(DrawPush, mask) == 80);
+static_assert(offsetof(DrawPush, index) == 96);
+
+}  // namespace penumbra::render

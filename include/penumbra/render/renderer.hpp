@@ -1,0 +1,92 @@
+#pragma once
+
+// The frame: sun shadow depth per cascade → spot / point shadow maps → depth + normal prepass →
+// shadow resolve (compute, shadow.glsl) → contact shadows (compute) → forward lighting →
+// tonemap + debug views. Passes, pipelines, images and shader variants are created only for
+// what the scene declares; created() lists them.
+
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/frame_types.hpp>
+#include <penumbra/scene/scene.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace penumbra::render {
+
+struct RendererOptions {
+  // Where the stage shaders (render/…) and the library (penumbra/…) live.
+  std::filesystem::path shader_dir;  // empty: the repo's shaders/ (compiled in)
+  uint32_t width = 0, height = 0;    // 0: the scene's [render] size
+};
+
+struct PassTiming {
+  std::string name;
+  double gpu_ms = 0.0;  // from timestamp queries
+};
+
+// What the renderer built for a scene, one line per object ("pass sun-shadow: 4 cascades …").
+struct BuildReport {
+  std::vector<std::string> passes;     // names of the passes that record work
+  std::vector<std::string> pipelines;  // pipeline names (with their shader variant defines)
+  std::vector<std::string> images;     // render targets and shadow maps with sizes and formats
+  std::string to_string() const;
+  bool has_pass(const std::string& name) const;
+  bool has_pipeline(const std::string& name) const;
+};
+
+// What a reload did: pipelines rebuilt, pipelines whose new sources failed (the last good
+// pipeline keeps running), and the compile errors with file:line.
+struct ReloadResult {
+  std::vector<std::string> rebuilt;
+  std::vector<std::string> failed;
+  std::vector<std::string> errors;
+  bool ok() const { return failed.empty(); }
+};
+
+class Renderer {
+ public:
+  Renderer(gpu::Context& ctx, const scene::Scene& scene, RendererOptions options = {});
+  ~Renderer();
+  Renderer(const Renderer&) = delete;
+  Renderer& operator=(const Renderer&) = delete;
+
+  // Records, submits and waits for one frame.
+  void render(uint32_t frame_index = 0);
+  // The last frame's tonemapped image, RGBA8, row-major, top row first.
+  std::vector<uint8_t> read_rgba8();
+  // Raw shadow info of the last frame (visibility, cascade, penumbra, density), RGBA float.
+  std::vector<float> read_shadow_info();
+  // Depth texels of one sun cascade's shadow map (resolution² floats); empty without a sun.
+  std::vector<float> read_sun_shadow_map(uint32_t cascade);
+
+  uint32_t width() const;
+  uint32_t height() const;
+  const BuildReport& built() const;
+  const std::vector<PassTiming>& timings() const;
+
+  void set_debug_view(scene::DebugView view);
+
+  // Hot reload: rebuilds exactly the pipelines whose shader sources or includes read one of
+  // these files. A source that fails to compile leaves its pipeline as it was.
+  ReloadResult reload(const std::vector<std::filesystem::path>& changed_files);
+  // Every file the pipelines' shaders read (stage files and includes), weakly canonical.
+  std::vector<std::filesystem::path> shader_files() const;
+  // The pipelines that read `file` (directly or through includes).
+  std::vector<std::string> pipelines_reading(const std::filesystem::path& file) const;
+  scene::Scene& scene();  // parameters may be edited between frames (filter, biases, …)
+
+  struct Impl;
+
+ private:
+  std::unique_ptr<Impl> impl_;
+};
+
+// Writes RGBA8 pixels as a PNG (stb_image_write); throws naming the path on failure.
+void write_png(const std::filesystem::path& path, uint32_t width, uint32_t height,
+               const std::vector<uint8_t>& rgba);
+
+}  // namespace penumbra::render

@@ -1,0 +1,143 @@
+#pragma once
+
+// A live penumbra-view session: a scene, its renderer, a watcher on the shader tree and the
+// reload loop between frames.
+//
+//   runtime::Session s(ctx, scene::load_scene(file), {.shader_dir = copy_of_shaders});
+//   s.render();                        // polls the watcher first: edits are picked up here
+//   s.wait_reload(2000ms);             // or block until the next edit is reloaded (+ 1 frame)
+//   s.set("shadows.filter", "pcss");   // parameters, by their scene-file names
+//   s.screenshot("out.png");
+//
+// Reload: the files of a finished burst go to Renderer::reload, which rebuilds exactly the
+// pipelines that read them. A pipeline whose new source fails to compile keeps running as it
+// was; its error (file:line) stays in errors() until a later reload rebuilds it. The files of a
+// failed batch are passed again with every later batch until it succeeds, so fixing an error
+// in a file the last good pipeline did not read yet (a new #include) also clears it. Deleted
+// files are reported and skipped; their pipelines keep running until the file is back.
+//
+// Latency: from the moment the watcher saw the first event of a burst to the end of the first
+// frame rendered with the rebuilt pipelines.
+
+#include "watcher.hpp"
+
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace penumbra::runtime {
+
+struct SessionOptions {
+  std::filesystem::path shader_dir;  // empty: the repo's shaders/ (compiled in)
+  std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
+  bool watch = true;                    // false: no watcher (reload only through reload())
+  std::chrono::milliseconds debounce{50};
+  // Every line the session prints ("[reload] ..."); default: stdout, flushed.
+  std::function<void(const std::string&)> log;
+};
+
+// One batch of changed files and what the reload did with it.
+struct ReloadRecord {
+  std::vector<std::filesystem::path> changed;  // existing files passed to Renderer::reload
+  std::vector<std::filesystem::path> deleted;  // gone when polled (only those a pipeline reads)
+  render::ReloadResult result;
+  double reload_ms = 0.0;      // Renderer::reload (compile + pipeline creation)
+  Clock::time_point event;     // the first event of the burst, as the watcher saw it
+  std::optional<double> latency_ms;  // event -> end of the first frame with the new pipelines
+  // Whether the batch touched a pipeline (rebuilt, failed or lost a file it reads).
+  bool relevant() const {
+    return !result.rebuilt.empty() || !result.failed.empty() || !deleted.empty();
+  }
+};
+
+class Session {
+ public:
+  Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options = {});
+  ~Session();
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  render::Renderer& renderer() { return *renderer_; }
+  const scene::Scene& scene() { return renderer_->scene(); }
+  std::filesystem::path shader_dir() const { return shader_dir_; }
+  Watcher* watcher() { return watcher_.get(); }
+
+  // Replaces the scene (a new renderer; the size given in the options is kept). On a failure
+  // the old scene and renderer stay.
+  void load_scene(const scene::Scene& scene);
+  // Renders at this size from now on (a new renderer).
+  void resize(std::uint32_t width, std::uint32_t height);
+
+  // Sets a parameter by its scene-file name ("shadows.filter", "contact.steps", "camera.position",
+  // "render.view", ...; see keys()). Throws penumbra::Error naming the key and value when the
+  // key is unknown or the value invalid. Parameters the frame reads (filters, biases, camera,
+  // view) apply to the next frame; those that change what is built (cascades, resolution,
+  // contact.*, reverse_z) rebuild the renderer, keeping the old one if that fails.
+  void set(const std::string& key, const std::string& value);
+  std::string get(const std::string& key);
+  static std::vector<std::string> keys();
+
+  void set_frame_index(std::uint32_t index) { frame_index_ = index; }
+
+  // Polls the watcher (never blocks) and applies a finished burst. Returns the batch applied.
+  std::optional<ReloadRecord> poll_reload();
+  // Applies these files as if the watcher had reported them (now).
+  ReloadRecord reload(const std::vector<std::filesystem::path>& files);
+  // Waits up to timeout for a relevant burst (one that touches a pipeline; with `file`, one
+  // that contains it), applies it and renders one frame, so the record has its latency.
+  // Returns nullopt on timeout.
+  std::optional<ReloadRecord> wait_reload(std::chrono::milliseconds timeout,
+                                          const std::optional<std::filesystem::path>& file = {});
+
+  // Renders `count` frames; a finished burst of edits is reloaded before each.
+  void render(std::uint32_t count = 1);
+  bool rendered() const { return rendered_; }
+  std::vector<std::uint8_t> pixels();  // the last frame, RGBA8
+  void screenshot(const std::filesystem::path& png);
+
+  // The pipelines whose last reload failed and their errors (file:line: error: ...).
+  const std::map<std::string, std::string>& errors() const { return errors_; }
+  // The errors joined, one per distinct message; empty when every pipeline is good.
+  std::string error_text() const;
+  const std::vector<ReloadRecord>& reloads() const { return reloads_; }
+  const ReloadRecord* last_reload() const { return reloads_.empty() ? nullptr : &reloads_.back(); }
+  std::vector<double> latencies_ms() const;
+  double median_latency_ms() const;
+
+  // "name ms" lines of the last frame's GPU timings.
+  std::string timings_text() const;
+  void log(const std::string& line) const;
+  std::string relative(const std::filesystem::path& file) const;
+
+ private:
+  ReloadRecord apply(const std::vector<FileChange>& changes);
+  void rebuild(const scene::Scene& scene, std::uint32_t width, std::uint32_t height);
+
+  gpu::Context& ctx_;
+  SessionOptions options_;
+  std::filesystem::path shader_dir_;
+  std::unique_ptr<render::Renderer> renderer_;
+  std::unique_ptr<Watcher> watcher_;
+  std::uint32_t width_ = 0, height_ = 0;
+  std::uint32_t frame_index_ = 0;
+  bool rendered_ = false;
+  std::map<std::string, std::string> errors_;
+  std::set<std::filesystem::path> retry_;  // files of failed batches, passed again
+  std::vector<ReloadRecord> reloads_;
+  std::optional<std::size_t> awaiting_frame_;  // index in reloads_ waiting for its first frame
+};
+
+// The median of v (0 for an empty v).
+double median(std::vector<double> v);
+
+}  // namespace penumbra::runtime

@@ -1,0 +1,98 @@
+#pragma once
+
+// A recursive file watcher for shader trees (Linux inotify).
+//
+//   runtime::Watcher w({shader_dir});          // the directory and every subdirectory
+//   ...
+//   for (const auto& path : w.poll()) ...      // between frames: never blocks
+//
+// The directories are watched (not the files) for IN_CLOSE_WRITE | IN_MOVED_TO | IN_MOVED_FROM |
+// IN_CREATE | IN_DELETE, so an editor's atomic save (write a temporary file, rename it over the
+// original) is seen as a change of the original, and a deleted file that is created again is
+// seen again. Directories created later are watched as they appear.
+//
+// A background thread reads the events as they arrive and timestamps them (FileChange's
+// first_seen is when the watcher saw the first event of the burst, not when it was polled).
+// Bursts are coalesced: a batch is handed out once no event arrived for `debounce` (or once the
+// burst has lasted `max_delay`, so a file that is rewritten continuously is still reloaded),
+// each path once.
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+namespace penumbra::runtime {
+
+using Clock = std::chrono::steady_clock;
+
+struct WatcherOptions {
+  std::chrono::milliseconds debounce{50};    // quiet time that ends a burst
+  std::chrono::milliseconds max_delay{500};  // a burst is handed out after this at the latest
+  // Only files whose name ends in one of these are reported ("" or empty list: every file).
+  // Editors' temporary and swap files (.swp, ~, 4913) are left out this way.
+  std::vector<std::string> extensions{".glsl", ".comp", ".vert", ".frag", ".geom",
+                                      ".tesc", ".tese", ".h",    ".inc"};
+};
+
+struct FileChange {
+  std::filesystem::path path;  // the watched directory's weakly canonical path / name
+  bool exists = true;          // false: deleted or renamed away (and not back) when polled
+  Clock::time_point first_seen;
+  Clock::time_point last_seen;
+};
+
+class Watcher {
+ public:
+  // Throws penumbra::Error naming the directory when a root is not a directory or inotify
+  // fails.
+  explicit Watcher(const std::vector<std::filesystem::path>& roots, WatcherOptions options = {});
+  ~Watcher();
+  Watcher(const Watcher&) = delete;
+  Watcher& operator=(const Watcher&) = delete;
+
+  // The files of the last finished burst, each once, sorted; empty when no burst is finished.
+  // Never blocks.
+  std::vector<std::filesystem::path> poll();
+  std::vector<FileChange> poll_changes();
+  // Blocks until a burst is finished (then returns it, as poll_changes) or the timeout passes
+  // (then returns an empty list).
+  std::vector<FileChange> wait(std::chrono::milliseconds timeout);
+
+  // The directories watched now (weakly canonical), sorted.
+  std::vector<std::filesystem::path> directories() const;
+  // inotify events read so far (all of them, also those filtered out).
+  std::uint64_t events_seen() const;
+  const WatcherOptions& options() const { return options_; }
+
+ private:
+  struct Pending {
+    Clock::time_point first, last;
+  };
+  void add_tree(const std::filesystem::path& dir, bool report_files);
+  void add_directory(const std::filesystem::path& dir);
+  void thread_main();
+  void handle_buffer(const char* data, std::size_t size, Clock::time_point now);
+  bool wanted(const std::string& name) const;
+  bool ready(Clock::time_point now) const;
+  std::vector<FileChange> take();
+
+  WatcherOptions options_;
+  std::vector<std::filesystem::path> roots_;
+  int inotify_fd_ = -1;
+  int wake_fd_ = -1;
+  mutable std::mutex mutex_;
+  std::condition_variable cv_;
+  std::map<int, std::filesystem::path> directories_;  // watch descriptor -> directory
+  std::map<std::filesystem::path, Pending> pending_;
+  Clock::time_point burst_first_{}, burst_last_{};
+  std::uint64_t events_ = 0;
+  std::thread thread_;
+};
+
+}  // namespace penumbra::runtime

@@ -1,0 +1,127 @@
+#version 460
+// Forward lighting: sun (visibility from the resolve, times the contact mask), spot and point
+// lights with their own shadow maps, hemispheric ambient. HDR output.
+#include "penumbra/common.glsl"
+#include "penumbra/frame_types.glsl"
+#include "penumbra/shadow_types.glsl"
+#include "penumbra/material.glsl"
+#include "penumbra/pcf.glsl"
+#include "penumbra/cascade.glsl"
+#include "penumbra/bias.glsl"
+
+#ifndef PENUMBRA_SUN_SHADOWS
+#define PENUMBRA_SUN_SHADOWS 0
+#endif
+#ifndef PENUMBRA_CONTACT
+#define PENUMBRA_CONTACT 0
+#endif
+#ifndef PENUMBRA_SPOT_SHADOWS
+#define PENUMBRA_SPOT_SHADOWS 0
+#endif
+#ifndef PENUMBRA_POINT_SHADOWS
+#define PENUMBRA_POINT_SHADOWS 0
+#endif
+
+layout(location = 0) in vec3 in_position;
+layout(location = 1) in vec3 in_normal;
+layout(location = 2) in vec2 in_uv;
+
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+#if PENUMBRA_SUN_SHADOWS
+layout(set = 0, binding = 1) uniform sampler2D shadow_info;
+#endif
+#if PENUMBRA_CONTACT
+layout(set = 0, binding = 2) uniform sampler2D contact_mask;
+#endif
+#if PENUMBRA_SPOT_SHADOWS > 0
+layout(set = 0, binding = 3) uniform SpotBlock { SpotShadowGpu spot_shadows[kMaxSpotLights]; };
+layout(set = 0, binding = 4) uniform sampler2DArrayShadow spot_maps;  // one layer per map
+#endif
+#if PENUMBRA_POINT_SHADOWS > 0
+layout(set = 0, binding = 5) uniform PointBlock { PointShadowGpu point_shadows[kMaxPointLights]; };
+layout(set = 0, binding = 6) uniform samplerCubeArrayShadow point_maps;  // one cube per map
+#endif
+
+layout(push_constant) uniform Push { DrawPush draw; };
+layout(location = 0) out vec4 out_color;
+
+float spot_cone(LightGpu l, vec3 to_light_unit) {
+  float c = dot(-to_light_unit, l.direction_cos.xyz);
+  return smoothstep(l.direction_cos.w, max(l.params.x, l.direction_cos.w + 1e-4), c);
+}
+
+float range_falloff(float dist, float range) {
+  float x = clamp(1.0 - pow(dist / range, 4.0), 0.0, 1.0);
+  return x * x / (dist * dist + 1.0);
+}
+
+
+void main() {
+  if (alpha_test_discards(in_uv, int(draw.mask.x), draw.mask.zw, draw.mask.y)) discard;
+  vec3 n = normalize(in_normal);
+  if (!gl_FrontFacing) n = -n;
+  vec3 albedo = draw.albedo.rgb;
+  vec3 brdf = albedo * kInvPi;  // Lambert; light intensities are irradiance
+  ivec2 pixel = ivec2(gl_FragCoord.xy);
+  vec3 color = albedo * frame.ambient.rgb * (0.6 + 0.4 * n.y);
+
+  if (frame.sun_direction.w > 0.0) {
+    vec3 l = frame.sun_direction.xyz;
+    float visibility = 1.0;
+#if PENUMBRA_SUN_SHADOWS
+    visibility = texelFetch(shadow_info, pixel, 0).r;
+#endif
+#if PENUMBRA_CONTACT
+    visibility *= texelFetch(contact_mask, pixel, 0).r;
+#endif
+    color += brdf * frame.sun_color.rgb * frame.sun_direction.w * max(dot(n, l), 0.0) * visibility;
+  }
+
+  for (int i = 0; i < int(frame.counts.x); ++i) {
+    LightGpu light = frame.spots[i];
+    vec3 d = light.position_range.xyz - in_position;
+    float dist = length(d);
+    vec3 l = d / max(dist, 1e-6);
+    float visibility = 1.0;
+#if PENUMBRA_SPOT_SHADOWS > 0
+    int map = int(light.params.y);
+    if (map >= 0) {
+      SpotShadowGpu s = spot_shadows[map];
+      float texel_world = s.params.z * dist;
+      vec3 offset = normal_offset(n, l, texel_world, frame.bias.x);
+      vec3 coord = world_to_shadow_coord(s.view_proj, in_position + offset);
+      float bias = slope_scaled_bias(dot(n, l), frame.bias.z, frame.bias.y * frame.bias.z, frame.bias.w);
+      coord.z = apply_depth_bias(coord.z, bias, s.info.y == 1u);
+      visibility = pcf_grid_array(spot_maps, coord, map, 1, vec2(1.0 / float(s.info.x)));
+    }
+#endif
+    color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
+             spot_cone(light, l) * range_falloff(dist, light.position_range.w) * visibility;
+  }
+
+  for (int i = 0; i < int(frame.counts.y); ++i) {
+    LightGpu light = frame.points[i];
+    vec3 d = light.position_range.xyz - in_position;
+    float dist = length(d);
+    vec3 l = d / max(dist, 1e-6);
+    float visibility = 1.0;
+#if PENUMBRA_POINT_SHADOWS > 0
+    int map = int(light.params.y);
+    if (map >= 0) {
+      PointShadowGpu s = point_shadows[map];
+      // Normal offset by about one cube texel at this distance, then compare the biased linear
+      // distance (reverse-Z stores 1 - t: GREATER_OR_EQUAL compare, bias adds).
+      float texel_world = 2.0 * dist / float(s.info.z);
+      vec3 q = in_position + normal_offset(n, l, texel_world, frame.bias.x);
+      vec3 v = q - s.position.xyz;
+      float t = clamp((length(v) - s.depth_range.x) * s.depth_range.z, 0.0, 1.0);
+      float ref = s.info.y == 1u ? 1.0 - t : t;
+      ref = apply_depth_bias(ref, frame.bias.z, s.info.y == 1u);
+      visibility = texture(point_maps, vec4(v, float(map)), ref);
+    }
+#endif
+    color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
+             range_falloff(dist, light.position_range.w) * visibility;
+  }
+  out_color = vec4(color, 1.0);
+}

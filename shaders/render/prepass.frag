@@ -1,0 +1,20 @@
+#version 460
+// Depth + normal prepass: view-space normal in rgb (unit; the contact pass reads view space),
+// 1 in alpha for geometry (sky stays 0).
+#include "penumbra/frame_types.glsl"
+#include "penumbra/material.glsl"
+
+layout(location = 0) in vec3 in_position;
+layout(location = 1) in vec3 in_normal;
+layout(location = 2) in vec2 in_uv;
+
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+layout(push_constant) uniform Push { DrawPush draw; };
+
+layout(location = 0) out vec4 out_normal;
+
+void main() {
+  if (alpha_test_discards(in_uv, int(draw.mask.x), draw.mask.zw, draw.mask.y)) discard;
+  vec3 n = normalize(in_normal);
+  out_normal = vec4(mat3(frame.view) * (gl_FrontFacing ? n : -n), 1.0);
+}

@@ -1,0 +1,106 @@
+#version 460
+// Sun shadow resolve: per pixel, cascade select + blend + distance fade + normal-offset and
+// slope-scaled bias + the configured filter, all through the library in penumbra/shadow.glsl.
+// Output rgba16f: r visibility (1 lit), g cascade index (-1 none), b PCSS penumbra width in
+// texels (-1: the surface faces away from the sun), a shadow-map texels per screen pixel (texel density).
+#include "penumbra/frame_types.glsl"
+#include "penumbra/shadow_types.glsl"
+#include "penumbra/shadow.glsl"
+#include "penumbra/noise.glsl"
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+layout(set = 0, binding = 1) uniform ShadowBlock { ShadowGpu shadow; };
+layout(set = 0, binding = 2) uniform sampler2D scene_depth;     // nearest
+layout(set = 0, binding = 3) uniform sampler2D scene_normal;    // nearest, view space
+layout(set = 0, binding = 4) uniform sampler2DArrayShadow shadow_compare;  // linear compare
+layout(set = 0, binding = 5) uniform sampler2DArray shadow_depth;          // nearest raw
+layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D shadow_info;
+
+// Visibility from one cascade, with its penumbra width (texels) for the debug view.
+float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out float penumbra) {
+  penumbra = 0.0;
+  CascadeGpu cascade = shadow.cascades[c];
+  float texel_world = cascade.params.x;
+  bool reverse_z = shadow.counts.y == 1u;
+  vec3 offset = normal_offset(n, to_light, texel_world, frame.bias.x);
+  vec3 coord = world_to_shadow_coord(cascade.view_proj, p + offset);
+  float n_dot_l = dot(n, to_light);
+  float bias = slope_scaled_bias(n_dot_l, frame.bias.z, frame.bias.y * frame.bias.z, frame.bias.w);
+  coord.z = apply_depth_bias(coord.z, bias, reverse_z);
+  vec2 texel = vec2(1.0 / float(shadow.counts.z));
+  float rotation = 6.2831853 * interleaved_gradient_noise_temporal(pixel, frame.mode.x);
+  uint filter_mode = frame.mode.z;
+  if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
+  if (filter_mode == kFilterPcf)
+    return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);
+  if (filter_mode == kFilterPoisson)
+    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), frame.filter_params.w,
+                             rotation, texel);
+  PcssParams params;
+  params.tan_half_angle = shadow.pcss.x;
+  params.texel_world_size = texel_world;
+  params.depth_near = cascade.params.y;
+  params.depth_far = cascade.params.z;
+  params.max_search_texels = shadow.pcss.y;
+  params.min_filter_texels = shadow.pcss.z;
+  params.max_filter_texels = shadow.pcss.w;
+  params.confidence_fraction = 0.1;
+  if (frame.mode.w == kViewPenumbra) {
+    float average;
+    int blockers;
+    float radius = pcss_search_radius_texels(clamp(coord.z, 0.0, 1.0), params, reverse_z);
+    pcss_blocker_search_array(shadow_depth, coord, c, radius, pcss_search_tap_count(int(frame.filter_params.y)),
+                              rotation, texel, reverse_z, average, blockers);
+    if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
+  }
+  return pcss_shadow_array(shadow_compare, shadow_depth, coord, c, texel, params,
+                           int(frame.filter_params.y), rotation, reverse_z);
+}
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 size = ivec2(frame.viewport.xy);
+  if (any(greaterThanEqual(pixel, size))) return;
+  vec4 nrm = texelFetch(scene_normal, pixel, 0);
+  if (nrm.a == 0.0) {  // sky
+    imageStore(shadow_info, pixel, vec4(1.0, -1.0, 0.0, 0.0));
+    return;
+  }
+  float depth = texelFetch(scene_depth, pixel, 0).r;
+  vec2 uv = (vec2(pixel) + 0.5) * frame.viewport.zw;
+  vec4 clip = vec4(uv * 2.0 - 1.0, depth, 1.0);
+  vec4 h = frame.inv_view_proj * clip;
+  vec3 p = h.xyz / h.w;
+  // The prepass stores view-space normals; the view matrix is a rotation (camera-relative).
+  vec3 n = normalize(transpose(mat3(frame.view)) * nrm.xyz);
+  vec3 to_light = shadow.light_dir_angular.xyz;
+  float view_depth = dot(p - shadow.camera_position.xyz, shadow.camera_forward.xyz);
+  int count = int(shadow.counts.x);
+  int c = select_cascade_by_depth(view_depth, shadow.splits, count);
+  float visibility = 1.0;
+  float penumbra = 0.0;
+  float texel_world = 0.0;
+  if (dot(n, to_light) <= 0.0) {
+    visibility = 0.0;  // faces turned away from the sun are in their own shadow
+    penumbra = -1.0;   // marks "self-shadowed" for the debug views and tests
+    texel_world = c < count ? shadow.cascades[c].params.x : 0.0;
+  } else if (c < count) {
+    visibility = cascade_visibility(c, p, n, to_light, vec2(pixel), penumbra);
+    texel_world = shadow.cascades[c].params.x;
+    float blend = cascade_blend_to_next(view_depth, shadow.splits, c, count, shadow.selection.x,
+                                        shadow.selection.y);
+    if (blend > 0.0) {
+      float next_penumbra;
+      float next = cascade_visibility(c + 1, p, n, to_light, vec2(pixel), next_penumbra);
+      visibility = mix(visibility, next, blend);
+    }
+    float fade = shadow_distance_fade(view_depth, shadow.selection.z, shadow.selection.w);
+    visibility = mix(visibility, 1.0, fade);  // fade: how far shadows have faded to lit
+  }
+  // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.
+  float pixel_world = view_depth * 2.0 * frame.projection.z * frame.viewport.w;
+  float density = texel_world > 0.0 ? pixel_world / texel_world : 0.0;
+  imageStore(shadow_info, pixel, vec4(visibility, c < count ? float(c) : -1.0, penumbra, density));
+}

@@ -1,0 +1,66 @@
+#version 460
+// Tonemap (exposure + ACES fit + sRGB) and the debug views, into an rgba8 image for PNG or the
+// swapchain.
+#include "penumbra/frame_types.glsl"
+
+#ifndef PENUMBRA_SUN_SHADOWS
+#define PENUMBRA_SUN_SHADOWS 0
+#endif
+#ifndef PENUMBRA_CONTACT
+#define PENUMBRA_CONTACT 0
+#endif
+
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+layout(set = 0, binding = 1) uniform sampler2D hdr;
+#if PENUMBRA_SUN_SHADOWS
+layout(set = 0, binding = 2) uniform sampler2D shadow_info;
+#endif
+#if PENUMBRA_CONTACT
+layout(set = 0, binding = 3) uniform sampler2D contact_mask;
+#endif
+layout(set = 0, binding = 4, rgba8) uniform writeonly image2D ldr;
+
+vec3 aces(vec3 x) {
+  return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
+}
+vec3 to_srgb(vec3 c) {
+  return mix(c * 12.92, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
+}
+vec3 heat(float t) {  // 0 blue → 1 red
+  t = clamp(t, 0.0, 1.0);
+  return clamp(vec3(1.5 - abs(4.0 * t - 3.0), 1.5 - abs(4.0 * t - 2.0), 1.5 - abs(4.0 * t - 1.0)), 0.0, 1.0);
+}
+
+const vec3 kCascadeColors[8] = vec3[](vec3(1, 0.3, 0.3), vec3(0.3, 1, 0.3), vec3(0.3, 0.5, 1),
+                                      vec3(1, 1, 0.3), vec3(1, 0.3, 1), vec3(0.3, 1, 1),
+                                      vec3(1, 0.6, 0.2), vec3(0.7, 0.7, 0.7));
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  if (any(greaterThanEqual(pixel, ivec2(frame.viewport.xy)))) return;
+  vec3 color = texelFetch(hdr, pixel, 0).rgb * frame.ambient.w;
+  vec3 out_rgb = to_srgb(aces(color));
+  uint view = frame.mode.w;
+  vec4 info = vec4(1.0, -1.0, 0.0, 0.0);
+#if PENUMBRA_SUN_SHADOWS
+  info = texelFetch(shadow_info, pixel, 0);
+#endif
+  float contact = 1.0;
+#if PENUMBRA_CONTACT
+  contact = texelFetch(contact_mask, pixel, 0).r;
+#endif
+  if (view == kViewShadowFactor) out_rgb = vec3(info.r * contact);
+  if (view == kViewCascades) {
+    vec3 tint = info.g >= 0.0 ? kCascadeColors[int(info.g) & 7] : vec3(1.0);
+    out_rgb = mix(out_rgb, tint * (0.3 + 0.7 * info.r), 0.6);
+  }
+  if (view == kViewContactMask) out_rgb = vec3(contact);
+  if (view == kViewTexelDensity) {
+    // Shadow-map texels per screen pixel on a log scale: 1 (green) is ideal, red undersampled
+    // (one texel covers several pixels: blocky shadows), blue oversampled.
+    out_rgb = info.g >= 0.0 ? heat(0.5 - log2(max(info.a, 1e-6)) / 6.0) : vec3(0.0);
+  }
+  if (view == kViewPenumbra) out_rgb = heat(max(info.b, 0.0) / 16.0) * (info.g >= 0.0 ? 1.0 : 0.0);
+  imageStore(ldr, pixel, vec4(out_rgb, 1.0));
+}

@@ -1,0 +1,1062 @@
+#include <penumbra/core/error.hpp>
+#include <penumbra/gpu/check.hpp>
+#include <penumbra/gpu/commands.hpp>
+#include <penumbra/gpu/pipeline.hpp>
+#include <penumbra/gpu/resources.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/shader/compiler.hpp>
+#include <penumbra/shadow/cascades.hpp>
+#include <penumbra/shadow/local_lights.hpp>
+#include <penumbra/shadow/pack.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/packing.hpp>
+#include <functional>
+#include <map>
+#include <set>
+#include <optional>
+#include <sstream>
+
+#include <penumbra/render/contact_shadows.hpp>
+
+namespace penumbra::render {
+namespace fs = std::filesystem;
+
+namespace {
+
+constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+constexpr VkFormat kInfoFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
+
+struct GpuMesh {
+  gpu::Buffer vertices, indices;
+  uint32_t index_count = 0;
+};
+
+struct Draw {
+  uint32_t mesh;
+  DrawPush push;
+  bool masked;
+  bool casts;
+};
+
+glm::dvec3 to_d(glm::vec3 v) { return glm::dvec3(v); }
+
+// Reverse-Z (or standard) perspective for the camera, Vulkan clip z in [0, 1], y down in NDC
+// handled by the viewport convention below (we flip y in the projection so +Y is up on screen).
+glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_z) {
+  const double t = std::tan(glm::radians(double(c.fov_y_degrees)) * 0.5);
+  const double n = c.near, f = c.far;
+  glm::dmat4 p(0.0);
+  p[0][0] = 1.0 / (aspect * t);
+  p[1][1] = -1.0 / t;  // Vulkan framebuffer y grows downward: flip so world up is screen up
+  if (reverse_z) {
+    p[2][2] = n / (f - n);
+    p[3][2] = f * n / (f - n);
+  } else {
+    p[2][2] = f / (n - f);
+    p[3][2] = f * n / (n - f);
+  }
+  p[2][3] = -1.0;
+  return glm::mat4(p);
+}
+
+VkVertexInputBindingDescription vertex_binding() { return {0, sizeof(scene::Vertex), VK_VERTEX_INPUT_RATE_VERTEX}; }
+
+gpu::VertexInput vertex_input() {
+  gpu::VertexInput v;
+  v.bindings = {vertex_binding()};
+  v.attributes = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)},
+                  {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, normal)},
+                  {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(scene::Vertex, uv)}};
+  return v;
+}
+
+std::string format_name(VkFormat f) {
+  switch (f) {
+    case VK_FORMAT_D32_SFLOAT:
+      return "D32_SFLOAT";
+    case VK_FORMAT_R16G16B16A16_SFLOAT:
+      return "RGBA16F";
+    case VK_FORMAT_R8G8B8A8_UNORM:
+      return "RGBA8";
+    case VK_FORMAT_R32_SFLOAT:
+      return "R32F";
+    default:
+      return std::to_string(int(f));
+  }
+}
+
+uint32_t filter_index(scene::Filter f) {
+  switch (f) {
+    case scene::Filter::hard:
+      return 0;
+    case scene::Filter::pcf:
+      return 1;
+    case scene::Filter::pcss:
+      return 2;
+    case scene::Filter::poisson:
+      return 3;
+  }
+  return 1;
+}
+
+}  // namespace
+
+std::string BuildReport::to_string() const {
+  std::ostringstream s;
+  for (const auto& p : passes) s << "pass      " << p << "\n";
+  for (const auto& p : pipelines) s << "pipeline  " << p << "\n";
+  for (const auto& i : images) s << "image     " << i << "\n";
+  return s.str();
+}
+
+bool BuildReport::has_pass(const std::string& name) const {
+  return std::any_of(passes.begin(), passes.end(),
+                     [&](const std::string& p) { return p.rfind(name, 0) == 0; });
+}
+
+bool BuildReport::has_pipeline(const std::string& name) const {
+  return std::any_of(pipelines.begin(), pipelines.end(),
+                     [&](const std::string& p) { return p.rfind(name, 0) == 0; });
+}
+
+struct Renderer::Impl {
+  gpu::Context& ctx;
+  scene::Scene scene;
+  fs::path shader_dir;
+  uint32_t width = 0, height = 0;
+  bool reverse_z = true;
+  scene::Scene::Requirements req{};
+  BuildReport report;
+  std::vector<PassTiming> timings;
+
+  shader::Compiler compiler;
+  std::vector<GpuMesh> meshes;
+  std::vector<Draw> draws;
+
+  // Uniform data.
+  gpu::Buffer frame_ubo, shadow_ubo, spot_ubo, point_ubo;
+  FrameGpu frame{};
+  glm::dvec3 origin{0.0};
+
+  // Images.
+  gpu::Image depth, normal, hdr, info, ldr;
+  gpu::Image sun_map;
+  std::vector<gpu::Image> spot_maps;
+  std::vector<gpu::Image> point_maps;
+  gpu::Sampler nearest, shadow_compare, raw_depth;
+  gpu::Buffer readback;
+
+  // Pipelines (null when the scene does not need them).
+  std::unique_ptr<gpu::PipelineLayout> geo_layout, shadow_layout, spot_layout, point_layout,
+      resolve_layout, tonemap_layout;
+  std::unique_ptr<gpu::GraphicsPipeline> prepass_opaque, prepass_masked, forward_opaque,
+      forward_masked, shadow_opaque, shadow_masked, spot_opaque, spot_masked, point_pipe;
+  std::unique_ptr<gpu::ComputePipeline> resolve, tonemap;
+  gpu::DescriptorPool pool;
+  VkDescriptorSet geo_set = VK_NULL_HANDLE, forward_set = VK_NULL_HANDLE,
+                  shadow_set = VK_NULL_HANDLE, spot_set = VK_NULL_HANDLE,
+                  point_set = VK_NULL_HANDLE, resolve_set = VK_NULL_HANDLE,
+                  tonemap_set = VK_NULL_HANDLE;
+  std::unique_ptr<gpu::PipelineLayout> forward_layout;
+  std::unique_ptr<ContactShadowPass> contact;
+  gpu::TimestampPool timestamps;
+  gpu::CommandRecorder recorder;
+
+  shadow::CascadeSet cascades;
+  std::vector<shadow::SpotShadow> spot_shadows;
+  std::vector<shadow::PointShadow> point_shadows;
+
+  Impl(gpu::Context& c, const scene::Scene& s, const RendererOptions& o)
+      : ctx(c),
+        scene(s),
+        shader_dir(o.shader_dir.empty() ? fs::path(PENUMBRA_SHADER_DIR) : o.shader_dir),
+        width(o.width ? o.width : s.render.width),
+        height(o.height ? o.height : s.render.height),
+        reverse_z(s.shadows.reverse_z),
+        compiler(shader::CompileOptions{{shader_dir}, {}, false}),
+        pool(c, 16),
+        timestamps(c, 32),
+        recorder(c) {}
+
+  // ---- pipeline registry: what each pipeline was built from, so a shader edit rebuilds
+  // exactly the pipelines whose sources (or their includes) read the edited file.
+  struct Source {
+    std::string file;  // relative to shader_dir
+    std::vector<shader::Define> defines;
+  };
+  using Spirvs = std::vector<std::vector<uint32_t>>;
+  struct PipelineRecord {
+    std::string name;
+    std::vector<Source> sources;
+    std::set<fs::path> dependencies;
+    std::function<void(const Spirvs&)> create;
+  };
+  std::vector<PipelineRecord> records;
+
+  Spirvs compile_sources(const std::vector<Source>& sources, std::set<fs::path>* deps) {
+    Spirvs out;
+    for (const auto& src : sources) {
+      auto c = compiler.compile_file(shader_dir / src.file, std::nullopt, src.defines);
+      if (deps)
+        for (const auto& d : c.dependencies) deps->insert(fs::weakly_canonical(d));
+      out.push_back(std::move(c.spirv));
+    }
+    return out;
+  }
+
+  void add_pipeline(const std::string& name, std::vector<Source> sources,
+                    std::function<void(const Spirvs&)> create) {
+    PipelineRecord r{name, std::move(sources), {}, std::move(create)};
+    r.create(compile_sources(r.sources, &r.dependencies));
+    report.pipelines.push_back(name);
+    records.push_back(std::move(r));
+  }
+
+  ReloadResult reload(const std::vector<fs::path>& changed) {
+    ReloadResult result;
+    std::set<fs::path> files;
+    for (const auto& f : changed) files.insert(fs::weakly_canonical(f));
+    bool waited = false;
+    for (auto& r : records) {
+      const bool affected = std::any_of(files.begin(), files.end(),
+                                        [&](const fs::path& f) { return r.dependencies.count(f) > 0; });
+      if (!affected) continue;
+      std::set<fs::path> deps;
+      Spirvs spirv;
+      try {
+        spirv = compile_sources(r.sources, &deps);
+      } catch (const shader::CompileError& e) {
+        result.failed.push_back(r.name);
+        result.errors.push_back(e.what());
+        continue;  // the last good pipeline stays
+      }
+      if (!waited) {
+        vkDeviceWaitIdle(ctx.device());
+        waited = true;
+      }
+      try {
+        r.create(spirv);
+      } catch (const Error& e) {
+        result.failed.push_back(r.name);
+        result.errors.push_back(e.what());
+        continue;
+      }
+      r.dependencies = std::move(deps);
+      result.rebuilt.push_back(r.name);
+    }
+    return result;
+  }
+
+  static std::string variant(const std::string& name, const std::vector<shader::Define>& d) {
+    std::string s = name;
+    for (const auto& x : d) s += " " + x.name + "=" + x.value;
+    return s;
+  }
+
+  gpu::Image make_image(const std::string& name, gpu::ImageKind kind, VkFormat format, uint32_t w,
+                        uint32_t h, uint32_t layers, VkImageUsageFlags usage) {
+    gpu::ImageDesc d;
+    d.kind = kind;
+    d.format = format;
+    d.width = w;
+    d.height = h;
+    d.layers = layers;
+    d.usage = usage;
+    report.images.push_back(name + " " + std::to_string(w) + "x" + std::to_string(h) +
+                            (layers > 1 ? "x" + std::to_string(layers) : "") + " " +
+                            format_name(format));
+    return gpu::Image(ctx, d);
+  }
+
+  void upload_meshes() {
+    for (const auto& m : scene.meshes) {
+      GpuMesh g;
+      if (m.vertices.empty() || m.indices.empty()) {
+        meshes.push_back(std::move(g));
+        continue;
+      }
+      g.vertices = gpu::Buffer(ctx, m.vertices.size() * sizeof(scene::Vertex),
+                               VK_BUFFER_USAGE_VERTEX_BUFFER_BIT, gpu::MemoryUse::device);
+      g.vertices.write(std::as_bytes(std::span(m.vertices)));
+      g.indices = gpu::Buffer(ctx, m.indices.size() * sizeof(uint32_t),
+                              VK_BUFFER_USAGE_INDEX_BUFFER_BIT, gpu::MemoryUse::device);
+      g.indices.write(std::as_bytes(std::span(m.indices)));
+      g.index_count = static_cast<uint32_t>(m.indices.size());
+      meshes.push_back(std::move(g));
+    }
+  }
+
+  void build_draws() {
+    draws.clear();
+    for (const auto& inst : scene.instances) {
+      const auto& mat = scene.materials.at(inst.material);
+      Draw d{};
+      d.mesh = inst.mesh;
+      // Camera-relative: translate by -origin in double before rounding to float.
+      glm::dmat4 model = glm::dmat4(inst.transform);
+      model[3] -= glm::dvec4(origin, 0.0);
+      d.push.model = glm::mat4(model);
+      d.masked = mat.alpha == scene::AlphaMode::masked;
+      d.push.albedo = glm::vec4(mat.albedo, d.masked ? 0.0f : 1.0f);
+      d.push.mask = glm::vec4(d.masked ? float(int(mat.mask)) : 0.0f, mat.alpha_cutoff,
+                              mat.mask_scale.x, mat.mask_scale.y);
+      d.casts = inst.casts_shadows;
+      draws.push_back(d);
+    }
+  }
+
+  void build() {
+    req = scene.requirements();
+    upload_meshes();
+    const VkImageUsageFlags sampled = VK_IMAGE_USAGE_SAMPLED_BIT;
+    depth = make_image("depth", gpu::ImageKind::image_2d, kDepthFormat, width, height, 1,
+                       VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | sampled);
+    normal = make_image("normal", gpu::ImageKind::image_2d, kNormalFormat, width, height, 1,
+                        VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | sampled);
+    hdr = make_image("hdr", gpu::ImageKind::image_2d, kHdrFormat, width, height, 1,
+                     VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT | sampled);
+    ldr = make_image("ldr", gpu::ImageKind::image_2d, kLdrFormat, width, height, 1,
+                     VK_IMAGE_USAGE_STORAGE_BIT);
+    readback = gpu::Buffer(ctx, size_t{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+
+    nearest = gpu::Sampler(ctx, gpu::SamplerDesc{});
+    gpu::SamplerDesc cmp;
+    cmp.filter = VK_FILTER_LINEAR;
+    cmp.compare = true;
+    cmp.compare_op = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
+    shadow_compare = gpu::Sampler(ctx, cmp);
+    raw_depth = gpu::Sampler(ctx, gpu::SamplerDesc{});
+
+    frame_ubo = gpu::Buffer(ctx, sizeof(FrameGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
+
+    // Geometry: prepass + forward share the vertex stage and the frame block.
+    geo_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx, std::vector<std::vector<gpu::BindingDesc>>{{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}},
+        uint32_t(sizeof(DrawPush)), all);
+    for (bool masked : {false, true}) {
+      if (masked && !req.masked_materials) continue;
+      add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
+                   {{"render/geometry.vert", {}}, {"render/prepass.frag", {}}},
+                   [this, masked](const Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.color_formats = {kNormalFormat};
+                     d.depth_format = kDepthFormat;
+                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS;
+                     d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
+                     (masked ? prepass_masked : prepass_opaque) =
+                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *geo_layout);
+                   });
+    }
+    geo_set = pool.allocate(geo_layout->set_layout(0));
+    gpu::DescriptorWriter().buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, geo_set);
+    report.passes.push_back("prepass: depth + normals");
+
+    if (req.sun_shadows) build_sun();
+    if (req.spot_shadow_maps > 0) build_spots();
+    if (req.point_shadow_cubes > 0) build_points();
+    build_contact();
+    build_forward();
+    build_tonemap();
+  }
+
+  void build_sun() {
+    const uint32_t res = scene.shadows.resolution;
+    const uint32_t n = req.cascades;
+    sun_map = make_image("sun-shadow-map", gpu::ImageKind::image_2d_array, kDepthFormat, res, res,
+                         n, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+    shadow_ubo = gpu::Buffer(ctx, sizeof(shadow::ShadowGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    shadow_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx,
+        std::vector<std::vector<gpu::BindingDesc>>{
+            {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
+        uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
+    for (bool masked : {false, true}) {
+      if (masked && !req.masked_materials) continue;
+      std::vector<Source> sources{{"render/shadow_depth.vert", {}}};
+      if (masked) sources.push_back({"render/shadow_masked.frag", {}});
+      add_pipeline(std::string("sun-shadow-") + (masked ? "masked" : "opaque (no fragment stage)"),
+                   sources, [this, masked](const Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     if (masked) d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.depth_format = kDepthFormat;
+                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
+                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_bias = true;
+                     d.depth_clamp = ctx.info().depth_clamp;
+                     d.cull = VK_CULL_MODE_NONE;
+                     (masked ? shadow_masked : shadow_opaque) =
+                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *shadow_layout);
+                   });
+    }
+    shadow_set = pool.allocate(shadow_layout->set_layout(0));
+    gpu::DescriptorWriter().buffer(0, shadow_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, shadow_set);
+    report.passes.push_back("sun-shadow: " + std::to_string(n) + " cascade(s) " + std::to_string(res) + "^2");
+
+    info = make_image("shadow-info", gpu::ImageKind::image_2d, kInfoFormat, width, height, 1,
+                      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+    resolve_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx,
+        std::vector<std::vector<gpu::BindingDesc>>{
+            {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+             {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}}});
+    add_pipeline("shadow-resolve", {{"render/shadow_resolve.comp", {}}}, [this](const Spirvs& spirv) {
+      resolve = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], *resolve_layout);
+    });
+    resolve_set = pool.allocate(resolve_layout->set_layout(0));
+    gpu::DescriptorWriter()
+        .buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .buffer(1, shadow_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .combined_image(2, depth.view(), nearest.handle())
+        .combined_image(3, normal.view(), nearest.handle())
+        .combined_image(4, sun_map.view(), shadow_compare.handle())
+        .combined_image(5, sun_map.view(), raw_depth.handle())
+        .storage_image(6, info.view())
+        .update(ctx, resolve_set);
+    report.passes.push_back("shadow-resolve: compute");
+  }
+
+  void build_spots() {
+    const uint32_t n = req.spot_shadow_maps;
+    uint32_t res = 16;
+    for (const auto& s : scene.spots)
+      if (s.shadows) res = std::max(res, s.resolution);
+    gpu::Image arr = make_image("spot-shadow-maps", gpu::ImageKind::image_2d_array, kDepthFormat, res,
+                                res, n, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+    spot_maps.push_back(std::move(arr));
+    spot_ubo = gpu::Buffer(ctx, sizeof(shadow::SpotShadowGpu) * kMaxSpotLights,
+                           VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    spot_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx,
+        std::vector<std::vector<gpu::BindingDesc>>{
+            {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
+        uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
+    for (bool masked : {false, true}) {
+      if (masked && !req.masked_materials) continue;
+      std::vector<Source> sources{{"render/spot_depth.vert", {}}};
+      if (masked) sources.push_back({"render/shadow_masked.frag", {}});
+      add_pipeline(std::string("spot-shadow-") + (masked ? "masked" : "opaque"), sources,
+                   [this, masked](const Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     if (masked) d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.depth_format = kDepthFormat;
+                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
+                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_bias = true;
+                     d.cull = VK_CULL_MODE_NONE;
+                     (masked ? spot_masked : spot_opaque) =
+                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *spot_layout);
+                   });
+    }
+    spot_set = pool.allocate(spot_layout->set_layout(0));
+    gpu::DescriptorWriter().buffer(0, spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, spot_set);
+    report.passes.push_back("spot-shadow: " + std::to_string(n) + " map(s) " + std::to_string(res) + "^2");
+  }
+
+  void build_points() {
+    const uint32_t n = req.point_shadow_cubes;
+    uint32_t res = 16;
+    for (const auto& p : scene.points)
+      if (p.shadows) res = std::max(res, p.resolution);
+    // One cube array: the forward pass indexes it by layer, not by descriptor.
+    point_maps.push_back(make_image("point-shadow-cubes", gpu::ImageKind::cube_array, kDepthFormat, res,
+                                    res, 6 * n,
+                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT));
+    point_ubo = gpu::Buffer(ctx, sizeof(shadow::PointShadowGpu) * kMaxPointLights,
+                            VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    point_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx,
+        std::vector<std::vector<gpu::BindingDesc>>{
+            {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
+        uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
+    add_pipeline("point-shadow-cube (linear distance)",
+                 {{"render/point_depth.vert", {}}, {"render/point_depth.frag", {}}},
+                 [this](const Spirvs& spirv) {
+                   gpu::GraphicsPipelineDesc d;
+                   d.vertex_spirv = spirv[0];
+                   d.fragment_spirv = spirv[1];
+                   d.vertex_input = vertex_input();
+                   d.depth_format = kDepthFormat;
+                   d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
+                                               : VK_COMPARE_OP_LESS_OR_EQUAL;
+                   d.cull = VK_CULL_MODE_NONE;  // cube face views are mirrored
+                   point_pipe = std::make_unique<gpu::GraphicsPipeline>(ctx, d, *point_layout);
+                 });
+    point_set = pool.allocate(point_layout->set_layout(0));
+    gpu::DescriptorWriter().buffer(0, point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, point_set);
+    report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces");
+  }
+
+  ContactShadowSettings contact_settings() const {
+    ContactShadowSettings c;
+    c.step_count = scene.contact.steps;
+    c.max_distance = scene.contact.max_distance;
+    c.thickness = scene.contact.thickness;
+    c.intensity = scene.contact.intensity;
+    return c;
+  }
+
+  // Contact shadows march toward the sun; without a sun (or with 0 steps) there is no pass.
+  // The pass compiles and owns its two compute pipelines; the registry record makes an edit to
+  // its shaders (or their includes) recreate it, and rebinds its mask where it is read.
+  void build_contact() {
+    if (!req.contact_pass || !scene.sun) return;
+    ContactShadowPassDesc desc;
+    desc.width = width;
+    desc.height = height;
+    desc.settings = contact_settings();
+    desc.shader_dir = shader_dir;
+    if (desc.settings.step_count == 0) return;
+    add_pipeline("contact-shadows (depth resolve + march)",
+                 {{"contact_shadows.comp", {}}, {"depth_resolve.comp", {}}},
+                 [this, desc](const Spirvs&) {
+                   auto pass = std::make_unique<ContactShadowPass>(ctx, desc);
+                   contact = std::move(pass);
+                   bind_contact_mask();
+                 });
+    report.passes.push_back("contact-shadows: compute (" + std::to_string(desc.settings.step_count) +
+                            " steps)");
+    report.images.push_back("contact-mask " + std::to_string(width) + "x" + std::to_string(height) +
+                            " R8 + resolved depth R32F");
+  }
+
+  // Points the forward and tonemap descriptor sets at the current contact mask (after the pass
+  // was recreated by a reload; at build time the sets do not exist yet).
+  void bind_contact_mask() {
+    if (!contact) return;
+    if (forward_set != VK_NULL_HANDLE)
+      gpu::DescriptorWriter().combined_image(2, contact->mask()->view(), nearest.handle()).update(ctx, forward_set);
+    if (tonemap_set != VK_NULL_HANDLE)
+      gpu::DescriptorWriter().combined_image(3, contact->mask()->view(), nearest.handle()).update(ctx, tonemap_set);
+  }
+
+  bool contact_active() const { return contact != nullptr; }
+
+  void record_contact(VkCommandBuffer cmd) {
+    ContactShadowFrame f;
+    const auto cam = shadow_camera();
+    f.camera = ContactCamera::from(cam, reverse_z ? shadow::DepthConvention::reverse_z
+                                                  : shadow::DepthConvention::standard);
+    f.light_dir_view = to_contact_view(cam, -to_d(scene.sun->direction));
+    f.frame = frame.mode.x;
+    contact->record(cmd, depth, normal, f);
+  }
+
+  std::vector<shader::Define> light_defines() const {
+    return {{"PENUMBRA_SUN_SHADOWS", req.sun_shadows ? "1" : "0"},
+            {"PENUMBRA_CONTACT", contact_active() ? "1" : "0"},
+            {"PENUMBRA_SPOT_SHADOWS", std::to_string(req.spot_shadow_maps)},
+            {"PENUMBRA_POINT_SHADOWS", std::to_string(req.point_shadow_cubes)}};
+  }
+
+  void build_forward() {
+    const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
+    std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}};
+    if (req.sun_shadows) b.push_back({1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+    if (contact_active()) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+    if (req.spot_shadow_maps) {
+      b.push_back({3, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
+      b.push_back({4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+    }
+    if (req.point_shadow_cubes) {
+      b.push_back({5, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
+      b.push_back({6, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+    }
+    forward_layout = std::make_unique<gpu::PipelineLayout>(
+        ctx, std::vector<std::vector<gpu::BindingDesc>>{b}, uint32_t(sizeof(DrawPush)), all);
+    const auto defines = light_defines();
+    for (bool masked : {false, true}) {
+      if (masked && !req.masked_materials) continue;
+      add_pipeline(variant(std::string("forward-") + (masked ? "masked" : "opaque"), defines),
+                   {{"render/geometry.vert", {}}, {"render/forward.frag", defines}},
+                   [this, masked](const Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.color_formats = {kHdrFormat};
+                     d.depth_format = kDepthFormat;
+                     d.depth_write = false;
+                     // The prepass wrote the nearest surface; "not behind it" rather than EQUAL
+                     // tolerates last-bit differences between two pipelines.
+                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
+                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
+                     (masked ? forward_masked : forward_opaque) =
+                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *forward_layout);
+                   });
+    }
+    forward_set = pool.allocate(forward_layout->set_layout(0));
+    gpu::DescriptorWriter w;
+    w.buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    if (req.sun_shadows) w.combined_image(1, info.view(), nearest.handle());
+    if (contact) w.combined_image(2, contact->mask()->view(), nearest.handle());
+    if (req.spot_shadow_maps) {
+      w.buffer(3, spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+      w.combined_image(4, spot_maps[0].view(), shadow_compare.handle());
+    }
+    if (req.point_shadow_cubes) {
+      w.buffer(5, point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+      w.combined_image(6, point_maps[0].view(), shadow_compare.handle());
+    }
+    w.update(ctx, forward_set);
+    report.passes.push_back("forward: lighting");
+  }
+
+  void build_tonemap() {
+    std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                                    {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                                    {4, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}};
+    if (req.sun_shadows) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
+    if (contact_active()) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
+    tonemap_layout = std::make_unique<gpu::PipelineLayout>(ctx, std::vector<std::vector<gpu::BindingDesc>>{b});
+    const auto defines = std::vector<shader::Define>{light_defines()[0], light_defines()[1]};
+    add_pipeline(variant("tonemap", defines), {{"render/tonemap.comp", defines}},
+                 [this](const Spirvs& spirv) {
+                   tonemap = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], *tonemap_layout);
+                 });
+    tonemap_set = pool.allocate(tonemap_layout->set_layout(0));
+    gpu::DescriptorWriter w;
+    w.buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .combined_image(1, hdr.view(), nearest.handle())
+        .storage_image(4, ldr.view());
+    if (req.sun_shadows) w.combined_image(2, info.view(), nearest.handle());
+    if (contact) w.combined_image(3, contact->mask()->view(), nearest.handle());
+    w.update(ctx, tonemap_set);
+    report.passes.push_back("tonemap: compute");
+  }
+
+  // ---- per frame -------------------------------------------------------------------------
+
+  shadow::Camera shadow_camera() const {
+    const auto& c = scene.camera;
+    shadow::Camera sc;
+    sc.position = to_d(c.position);
+    sc.forward = to_d(c.target - c.position);
+    sc.up = to_d(c.up);
+    sc.fov_y = glm::radians(double(c.fov_y_degrees));
+    sc.aspect = double(width) / double(height);
+    sc.near = c.near;
+    sc.far = c.far;
+    return sc;
+  }
+
+  shadow::Aabb bounds(const scene::Bounds& b) const {
+    shadow::Aabb a;
+    a.min = to_d(b.min);
+    a.max = to_d(b.max);
+    return a;
+  }
+
+  void update(uint32_t frame_index) {
+    const auto& c = scene.camera;
+    origin = to_d(c.position);
+    build_draws();
+    const double aspect = double(width) / double(height);
+    const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), c.target - c.position, c.up);
+    const glm::mat4 proj = camera_projection(c, aspect, reverse_z);
+    frame = FrameGpu{};
+    frame.view = view;
+    frame.proj = proj;
+    frame.view_proj = proj * view;
+    frame.inv_view_proj = glm::inverse(frame.view_proj);
+    frame.camera_position = glm::vec4(0, 0, 0, 1);
+    frame.camera_forward = glm::vec4(glm::normalize(c.target - c.position), 0);
+    frame.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+    frame.projection = glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
+    const auto& sh = scene.shadows;
+    frame.bias = glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.constant_bias * 20.0f);
+    frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f, std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+    frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
+                            uint32_t(scene.render.view));
+    frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);
+    if (scene.sun) {
+      frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);
+      frame.sun_color = glm::vec4(scene.sun->color, scene.sun->shadows ? 1.0f : 0.0f);
+    }
+    // Local lights.
+    spot_shadows.clear();
+    point_shadows.clear();
+    uint32_t spot_maps_used = 0, point_maps_used = 0;
+    std::vector<shadow::SpotShadowGpu> spot_gpu(kMaxSpotLights);
+    std::vector<shadow::PointShadowGpu> point_gpu(kMaxPointLights);
+    uint32_t spots = 0;
+    for (const auto& s : scene.spots) {
+      if (spots == kMaxSpotLights) break;
+      LightGpu& l = frame.spots[spots++];
+      l.position_range = glm::vec4(glm::vec3(to_d(s.position) - origin), s.range);
+      l.direction_cos = glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
+      l.color_intensity = glm::vec4(s.color, s.intensity);
+      l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, 0, 0);
+      if (s.shadows && spot_maps_used < req.spot_shadow_maps) {
+        shadow::SpotLight sl;
+        sl.position = to_d(s.position);
+        sl.direction = to_d(s.direction);
+        sl.outer_angle = glm::radians(double(s.outer_degrees));
+        sl.range = s.range;
+        shadow::SpotShadowConfig cfg;
+        cfg.resolution = s.resolution;
+        cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+        spot_shadows.push_back(shadow::compute_spot_shadow(sl, cfg));
+        spot_gpu[spot_maps_used] = shadow::pack_spot_shadow(spot_shadows.back(), origin);
+        l.params.y = float(spot_maps_used++);
+      }
+    }
+    uint32_t points = 0;
+    for (const auto& p : scene.points) {
+      if (points == kMaxPointLights) break;
+      LightGpu& l = frame.points[points++];
+      l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
+      l.color_intensity = glm::vec4(p.color, p.intensity);
+      l.params = glm::vec4(0, -1.0f, 0, 0);
+      if (p.shadows && point_maps_used < req.point_shadow_cubes) {
+        shadow::PointLight pl;
+        pl.position = to_d(p.position);
+        pl.range = p.range;
+        shadow::PointShadowConfig cfg;
+        cfg.resolution = p.resolution;
+        cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+        point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
+        point_gpu[point_maps_used] = shadow::pack_point_shadow(point_shadows.back(), origin);
+        l.params.y = float(point_maps_used++);
+      }
+    }
+    frame.counts = glm::uvec4(spots, points, contact_active() ? 1u : 0u, 0u);
+    frame_ubo.write(std::as_bytes(std::span(&frame, 1)));
+    if (req.spot_shadow_maps) spot_ubo.write(std::as_bytes(std::span(spot_gpu)));
+    if (req.point_shadow_cubes) point_ubo.write(std::as_bytes(std::span(point_gpu)));
+
+    if (req.sun_shadows) {
+      shadow::ShadowConfig cfg;
+      cfg.cascade_count = req.cascades;
+      cfg.split_lambda = sh.split_lambda;
+      cfg.max_distance = sh.max_distance;
+      cfg.resolution = sh.resolution;
+      cfg.fit = static_cast<shadow::CascadeFit>(static_cast<uint32_t>(sh.fit));
+      cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+      cfg.depth_clamp = ctx.info().depth_clamp;
+      cfg.blend_fraction = sh.blend_band;
+      cfg.fade_fraction = sh.fade_band;
+      shadow::DirectionalLight light;
+      light.direction = to_d(scene.sun->direction);
+      light.angular_diameter = glm::radians(double(scene.sun->angular_diameter_degrees));
+      cascades = shadow::compute_cascades(cfg, shadow_camera(), light, bounds(scene.world_bounds()));
+      const auto gpu_shadow = shadow::pack_shadow(cascades, origin);
+      shadow_ubo.write(std::as_bytes(std::span(&gpu_shadow, 1)));
+    }
+  }
+
+  void draw_meshes(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline opaque,
+                   VkPipeline masked, bool casters_only, glm::uvec4 index) {
+    for (int pass = 0; pass < 2; ++pass) {
+      VkPipeline p = pass == 0 ? opaque : masked;
+      if (p == VK_NULL_HANDLE) continue;
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
+      for (const auto& d : draws) {
+        if (d.masked != (pass == 1) || (casters_only && !d.casts)) continue;
+        const GpuMesh& m = meshes[d.mesh];
+        if (m.index_count == 0) continue;
+        DrawPush push = d.push;
+        push.index = index;
+        vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
+        VkDeviceSize offset = 0;
+        VkBuffer vb = m.vertices.handle();
+        vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
+        vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+        vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+      }
+    }
+  }
+
+  static void viewport(VkCommandBuffer cmd, uint32_t w, uint32_t h) {
+    VkViewport vp{0, 0, float(w), float(h), 0, 1};
+    VkRect2D sc{{0, 0}, {w, h}};
+    vkCmdSetViewport(cmd, 0, 1, &vp);
+    vkCmdSetScissor(cmd, 0, 1, &sc);
+  }
+
+  void begin_depth_only(VkCommandBuffer cmd, VkImageView view, uint32_t res) {
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = view;
+    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    da.clearValue.depthStencil = {reverse_z ? 0.0f : 1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {res, res}};
+    ri.layerCount = 1;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    viewport(cmd, res, res);
+  }
+
+  // Caster-side depth bias pushes caster depth away from the light: negative under reverse-Z.
+  void set_caster_bias(VkCommandBuffer cmd) {
+    const float sign = reverse_z ? -1.0f : 1.0f;
+    vkCmdSetDepthBias(cmd, 0.0f, 0.0f, sign * 1.0f);
+  }
+
+  void record(VkCommandBuffer cmd) {
+    uint32_t q = 0;
+    std::vector<std::string> names;
+    timestamps.reset(cmd);
+    auto mark = [&](const std::string& name) {
+      timestamps.write(cmd, q++, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT);
+      if (!name.empty()) names.push_back(name);
+    };
+    mark("");
+    if (req.sun_shadows) {
+      sun_map.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+      const uint32_t res = scene.shadows.resolution;
+      for (uint32_t c = 0; c < req.cascades; ++c) {
+        begin_depth_only(cmd, sun_map.layer_view(c), res);
+        set_caster_bias(cmd);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout->handle(), 0, 1, &shadow_set, 0, nullptr);
+        draw_meshes(cmd, *shadow_layout, shadow_opaque->handle(),
+                    shadow_masked ? shadow_masked->handle() : VK_NULL_HANDLE, true, glm::uvec4(c, 0, 0, 0));
+        vkCmdEndRendering(cmd);
+      }
+      sun_map.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      mark("sun-shadow");
+    }
+    if (req.spot_shadow_maps) {
+      auto& arr = spot_maps[0];
+      arr.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+      for (uint32_t i = 0; i < uint32_t(spot_shadows.size()); ++i) {
+        begin_depth_only(cmd, arr.layer_view(i), arr.desc().width);
+        set_caster_bias(cmd);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, spot_layout->handle(), 0, 1, &spot_set, 0, nullptr);
+        draw_meshes(cmd, *spot_layout, spot_opaque->handle(), spot_masked ? spot_masked->handle() : VK_NULL_HANDLE,
+                    true, glm::uvec4(i, 0, 0, 0));
+        vkCmdEndRendering(cmd);
+      }
+      arr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      mark("spot-shadow");
+    }
+    if (req.point_shadow_cubes) {
+      auto& cubes = point_maps[0];
+      cubes.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+      for (uint32_t i = 0; i < uint32_t(point_shadows.size()); ++i) {
+        for (uint32_t f = 0; f < 6; ++f) {
+          begin_depth_only(cmd, cubes.layer_view(6 * i + f), cubes.desc().width);
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_layout->handle(), 0, 1, &point_set, 0, nullptr);
+          draw_meshes(cmd, *point_layout, point_pipe->handle(), VK_NULL_HANDLE, true, glm::uvec4(f, i, 0, 0));
+          // Masked casters use the same pipeline: its fragment stage alpha-tests.
+          draw_masked_with(cmd, *point_layout, point_pipe->handle(), glm::uvec4(f, i, 0, 0));
+          vkCmdEndRendering(cmd);
+        }
+      }
+      cubes.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      mark("point-shadow");
+    }
+
+    // Prepass.
+    depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+    normal.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    {
+      VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      ca.imageView = normal.view();
+      ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      ca.clearValue.color = {{0, 0, 0, 0}};
+      VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      da.imageView = depth.view();
+      da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      da.clearValue.depthStencil = {reverse_z ? 0.0f : 1.0f, 0};
+      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+      ri.renderArea = {{0, 0}, {width, height}};
+      ri.layerCount = 1;
+      ri.colorAttachmentCount = 1;
+      ri.pColorAttachments = &ca;
+      ri.pDepthAttachment = &da;
+      vkCmdBeginRendering(cmd, &ri);
+      viewport(cmd, width, height);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, geo_layout->handle(), 0, 1, &geo_set, 0, nullptr);
+      draw_meshes(cmd, *geo_layout, prepass_opaque->handle(),
+                  prepass_masked ? prepass_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
+      vkCmdEndRendering(cmd);
+    }
+    depth.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    normal.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    mark("prepass");
+
+    if (req.sun_shadows) {
+      info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+      vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve->handle());
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_layout->handle(), 0, 1, &resolve_set, 0, nullptr);
+      vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+      info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      mark("shadow-resolve");
+    }
+    if (contact) {
+      record_contact(cmd);
+      mark("contact-shadows");
+    }
+
+    // Forward.
+    depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+    hdr.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    {
+      VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      ca.imageView = hdr.view();
+      ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      const glm::vec3 sky = scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
+      ca.clearValue.color = {{sky.r, sky.g, sky.b, 1.0f}};
+      VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      da.imageView = depth.view();
+      da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
+      da.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
+      da.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
+      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+      ri.renderArea = {{0, 0}, {width, height}};
+      ri.layerCount = 1;
+      ri.colorAttachmentCount = 1;
+      ri.pColorAttachments = &ca;
+      ri.pDepthAttachment = &da;
+      vkCmdBeginRendering(cmd, &ri);
+      viewport(cmd, width, height);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1, &forward_set, 0, nullptr);
+      draw_meshes(cmd, *forward_layout, forward_opaque->handle(),
+                  forward_masked ? forward_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
+      vkCmdEndRendering(cmd);
+    }
+    hdr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    mark("forward");
+
+    ldr.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tonemap->handle());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tonemap_layout->handle(), 0, 1, &tonemap_set, 0, nullptr);
+    vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
+    mark("tonemap");
+
+    ldr.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    VkBufferImageCopy region{};
+    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+    region.imageExtent = {width, height, 1};
+    vkCmdCopyImageToBuffer(cmd, ldr.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.handle(), 1, &region);
+    gpu::full_barrier(cmd);
+    pass_names = names;
+  }
+
+  void draw_masked_with(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline p, glm::uvec4 index) {
+    // draw_meshes skips masked draws when no masked pipeline is given; the point pipeline
+    // handles both, so draw the masked ones with it too.
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
+    for (const auto& d : draws) {
+      if (!d.masked || !d.casts) continue;
+      const GpuMesh& m = meshes[d.mesh];
+      if (m.index_count == 0) continue;
+      DrawPush push = d.push;
+      push.index = index;
+      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
+      VkDeviceSize offset = 0;
+      VkBuffer vb = m.vertices.handle();
+      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
+      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+    }
+  }
+
+  std::vector<std::string> pass_names;
+
+  void render(uint32_t frame_index) {
+    update(frame_index);
+    VkCommandBuffer cmd = recorder.begin();
+    record(cmd);
+    recorder.submit_and_wait();
+    const auto ns = timestamps.read_ns(uint32_t(pass_names.size() + 1));
+    timings.clear();
+    for (size_t i = 0; i < pass_names.size(); ++i)
+      timings.push_back({pass_names[i], (ns[i + 1] - ns[i]) * 1e-6});
+  }
+};
+
+Renderer::Renderer(gpu::Context& ctx, const scene::Scene& scene, RendererOptions options)
+    : impl_(std::make_unique<Impl>(ctx, scene, options)) {
+  if (impl_->width == 0 || impl_->height == 0) {
+    throw Error("Renderer: width and height must be > 0 (got " + std::to_string(impl_->width) +
+                "x" + std::to_string(impl_->height) + ")");
+  }
+  impl_->build();
+}
+
+ReloadResult Renderer::reload(const std::vector<fs::path>& changed_files) {
+  return impl_->reload(changed_files);
+}
+
+std::vector<fs::path> Renderer::shader_files() const {
+  std::set<fs::path> all;
+  for (const auto& r : impl_->records) all.insert(r.dependencies.begin(), r.dependencies.end());
+  return {all.begin(), all.end()};
+}
+
+std::vector<std::string> Renderer::pipelines_reading(const fs::path& file) const {
+  const fs::path f = fs::weakly_canonical(file);
+  std::vector<std::string> out;
+  for (const auto& r : impl_->records)
+    if (r.dependencies.count(f)) out.push_back(r.name);
+  return out;
+}
+
+Renderer::~Renderer() {
+  if (impl_) vkDeviceWaitIdle(impl_->ctx.device());
+}
+
+void Renderer::render(uint32_t frame_index) { impl_->render(frame_index); }
+
+std::vector<uint8_t> Renderer::read_rgba8() {
+  std::vector<uint8_t> px(size_t{impl_->width} * impl_->height * 4);
+  impl_->readback.read(std::as_writable_bytes(std::span(px)));
+  return px;
+}
+
+std::vector<float> Renderer::read_shadow_info() {
+  if (!impl_->req.sun_shadows) return {};
+  const auto bytes = impl_->info.download();
+  std::vector<float> out(size_t{impl_->width} * impl_->height * 4);
+  const auto* h = reinterpret_cast<const uint16_t*>(bytes.data());
+  for (size_t i = 0; i < out.size(); ++i) out[i] = glm::unpackHalf1x16(h[i]);
+  return out;
+}
+
+std::vector<float> Renderer::read_sun_shadow_map(uint32_t cascade) {
+  if (!impl_->req.sun_shadows || cascade >= impl_->req.cascades) return {};
+  const auto bytes = impl_->sun_map.download();
+  const size_t texels = size_t{impl_->sun_map.desc().width} * impl_->sun_map.desc().height;
+  std::vector<float> out(texels);
+  std::memcpy(out.data(), bytes.data() + cascade * texels * 4, texels * 4);
+  return out;
+}
+
+uint32_t Renderer::width() const { return impl_->width; }
+uint32_t Renderer::height() const { return impl_->height; }
+const BuildReport& Renderer::built() const { return impl_->report; }
+const std::vector<PassTiming>& Renderer::timings() const { return impl_->timings; }
+void Renderer::set_debug_view(scene::DebugView view) { impl_->scene.render.view = view; }
+scene::Scene& Renderer::scene() { return impl_->scene; }
+
+}  // namespace penumbra::render
