@@ -10,11 +10,24 @@
 // perturbation of one of its decisions (a tap within 1e-4 pixel of a texel edge, where the
 // nearest read and the own-texel skip may pick the other texel; a depth difference within a
 // relative 2e-5 of the tolerance window's ends; a ray length within 1e-4 pixel of a whole number
-// of pixels, which sets the step count; N.L within 1e-6 of 0) could change the mask. The GPU
-// computes in float, so it may take the other branch there and only there; tests accept a
-// mismatch only on marginal pixels. In practice these are taps that land exactly on a depth
-// discontinuity, where the two candidate texels hold different surfaces.
-
+// of pixels, which sets the step count; N.L within 1e-6 of 0) or the device's filtering
+// precision (a bilinear read whose allowed range, below, reaches across an end of the window)
+// could change the mask. The GPU computes in float, so it may take the other branch there and
+// only there; tests accept a mismatch only on marginal pixels. In practice these are taps that
+// land exactly on a depth discontinuity, where the two candidate texels hold different surfaces.
+//
+// The bilinear read is not exact on every device. Vulkan lets a device quantise the sample
+// position's fraction within a texel (the bilinear weights) to 2^-subTexelPrecisionBits
+// (Params::bilinear_weight_error; 8 bits on NVIDIA and on lavapipe, though lavapipe filters
+// exactly). The device then returns the exact bilinear function at a position within that many
+// texels of the true one along each axis, which differs from the exact read by up to
+// 2^-bits * (x difference + y difference of the footprint's texels) <= 2 * 2^-bits * range. A
+// difference of 2^-8 of a silhouette's depth jump is a large change of view distance, far
+// beyond any float rounding, so the reference carries it as an interval: PixelResult::mask_lo
+// and mask_hi are the smallest and largest masks a device may return when every bilinear read
+// may lie anywhere in its allowed range (every other decision exact); mask is the exact-filter
+// value between them. A result outside [mask_lo, mask_hi] is a mismatch, allowed on marginal
+// pixels only.
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -51,8 +64,11 @@ struct Params {
   std::uint32_t step_count = 16;
   std::uint32_t frame = 0;
   bool reverse_z = true;
-  // Relative uncertainty of the GPU's bilinear weights (2^-subTexelPrecisionBits): the filtered
-  // depth may be off by this fraction of the four texels' range. 0 for an exact filter.
+  // The device's bilinear weights are the sample position's fraction within a texel quantised to
+  // this (2^-subTexelPrecisionBits of VkPhysicalDeviceLimits): the filtered depth may be the
+  // exact filter's at any position within this many texels along each axis, up to
+  // 2 * bilinear_weight_error * (the footprint's range) from the exact read (see the top). 0
+  // for an exact filter.
   double bilinear_weight_error = 0.0;
 };
 
@@ -196,7 +212,7 @@ inline double edge_fade(glm::dvec2 uv, double width) {
 }
 
 // Bilinear read at uv (texel centres at (i + 0.5) / size, clamp to edge). range: the largest
-// difference among the four texels (for the weight-error margin).
+// difference among the four texels.
 inline double bilinear(const Buffers& b, glm::dvec2 uv, double* range = nullptr) {
   const double fx = uv.x * b.width - 0.5, fy = uv.y * b.height - 0.5;
   const double x0 = std::floor(fx), y0 = std::floor(fy);
@@ -207,6 +223,32 @@ inline double bilinear(const Buffers& b, glm::dvec2 uv, double* range = nullptr)
   const double d00 = b.at(xa, ya), d10 = b.at(xb, ya), d01 = b.at(xa, yb), d11 = b.at(xb, yb);
   if (range) *range = std::max({d00, d10, d01, d11}) - std::min({d00, d10, d01, d11});
   return (1 - ay) * ((1 - ax) * d00 + ax * d10) + ay * ((1 - ax) * d01 + ax * d11);
+}
+
+// The smallest and largest bilinear read at a sample position within h texels of uv's along
+// each axis (the weight quantisation above, h = 2^-subTexelPrecisionBits, plus any position
+// slack). The filtered function is bilinear inside each cell between four texel centres and
+// continuous across cells, so over the box its extremes lie at the box's corners and where the
+// box's edges cross a row or column of texel centres (a footprint switch: the box may reach a
+// texel outside the nominal footprint); those are the points evaluated.
+inline void bilinear_range(const Buffers& b, glm::dvec2 uv, double h, double* lo, double* hi) {
+  const auto candidates = [h](double f, std::vector<double>* out) {
+    out->push_back(f - h);
+    out->push_back(f + h);
+    for (double k = std::ceil(f - h); k < f + h; k += 1.0) out->push_back(k);
+  };
+  std::vector<double> xs, ys;
+  candidates(uv.x * b.width - 0.5, &xs);
+  candidates(uv.y * b.height - 0.5, &ys);
+  *lo = std::numeric_limits<double>::infinity();
+  *hi = -*lo;
+  for (double fx : xs) {
+    for (double fy : ys) {
+      const double v = bilinear(b, {(fx + 0.5) / b.width, (fy + 0.5) / b.height});
+      *lo = std::min(*lo, v);
+      *hi = std::max(*hi, v);
+    }
+  }
 }
 
 // The spread of view distances over the four texels of the bilinear footprint at uv (+inf when
@@ -281,13 +323,19 @@ enum Reason : unsigned {
   kDepthWindow = 2,  // a depth difference within the margin of the tolerance window's ends
   kStepCount = 4,    // a ray length within kLengthMargin of a whole number of pixels
   kFacing = 8,       // N.L within kNdotLMargin of 0
-  // With kTexelEdge or kDepthWindow: the uncertain tap's bilinear footprint straddles a depth
-  // discontinuity (its texels' view distances spread wider than the occlusion window).
+  // With kTexelEdge, kDepthWindow or kBilinearWeight: the uncertain tap's bilinear footprint
+  // straddles a depth discontinuity (its texels' view distances spread wider than the
+  // occlusion window).
   kDiscontinuity = 16,
+  // A bilinear read whose range under the device's weight quantisation
+  // (Params::bilinear_weight_error) reaches across an end of the tolerance window.
+  kBilinearWeight = 32,
 };
 
 struct PixelResult {
-  double mask = 1.0;
+  double mask = 1.0;     // with the exact bilinear filter
+  double mask_lo = 1.0;  // the smallest and largest mask a device may return when its bilinear
+  double mask_hi = 1.0;  // reads may lie anywhere in their allowed range (see the top)
   bool marginal = false;
   unsigned reasons = 0;  // Reason bits, when marginal
   Ray ray;
@@ -295,22 +343,75 @@ struct PixelResult {
 
 namespace detail {
 
-// The occlusion weight of the march with `steps` steps: the largest edge-fade weight of an
-// occluding tap. *possible is the same with every marginal tap counted as occluding.
-inline double occlusion(const Buffers& b, int x, int y, const Params& p, Reads reads, const Ray& r,
-                        std::uint32_t steps, double* possible, unsigned* reasons = nullptr) {
+// Which outcomes of the occlusion test a read can have: can_hit, can_miss.
+struct Outcomes {
+  bool can_hit = true;
+  bool can_miss = false;
+};
+
+// The outcomes of contact_ray_behind for a depth-buffer value anywhere in [lo, hi], each view
+// distance also within `margin` either way (float rounding). The view distance is monotonic in
+// the depth-buffer value, so the values in [lo, hi] map to a view-distance interval, plus "no
+// surface" where the interval reaches the sky.
+inline Outcomes behind_range(double lo, double hi, double ray_z, double tol, double thickness,
+                             double margin, const Params& p) {
+  if (!std::isfinite(lo) || !std::isfinite(hi)) return {true, true};
+  const bool sky_lo = is_sky(lo, p.reverse_z), sky_hi = is_sky(hi, p.reverse_z);
+  if (sky_lo && sky_hi) return {false, true};
+  // The non-sky part: its ends' view distances (a sky end replaced by the far plane's value).
+  const double sky_value = p.reverse_z ? 0.0 : 1.0;
+  const double za = view_depth(sky_lo ? sky_value : lo, p.near, p.far, p.reverse_z);
+  const double zb = view_depth(sky_hi ? sky_value : hi, p.near, p.far, p.reverse_z);
+  const double zmin = std::min(za, zb) - margin, zmax = std::max(za, zb) + margin;
+  // Behind when z is inside (ray_z - tol - thickness, ray_z - tol).
+  const double front = ray_z - tol - thickness, back = ray_z - tol;
+  Outcomes o;
+  o.can_hit = zmin < back && zmax > front;
+  o.can_miss = sky_lo || sky_hi || !(zmin > front) || !(zmax < back);
+  return o;
+}
+
+// The march's occlusion weights with `steps` steps (the largest edge-fade weight of an occluding
+// tap): exact with the reference's own decisions; sure / possible with every tap that float
+// rounding or the filter precision could turn counted as missing / occluding; sure_w /
+// possible_w the same for the filter precision alone (every other decision exact).
+struct Occlusion {
+  double exact = 0.0, sure = 0.0, possible = 0.0, sure_w = 0.0, possible_w = 0.0;
+};
+
+inline Occlusion occlusion(const Buffers& b, int x, int y, const Params& p, Reads reads,
+                           const Ray& r, std::uint32_t steps, unsigned* reasons = nullptr) {
   const bool use_bilinear = reads != Reads::nearest_only;
   const bool use_nearest = reads != Reads::bilinear_only;
   const double nz = noise(x, y, p.frame);
-  double sure = 0.0, maybe = 0.0;
+  const double weight_h = std::max(p.bilinear_weight_error, 0.0);
+  Occlusion o;
   for (std::uint32_t i = 0; i < steps; ++i) {
     const double t = step_t(i, steps, nz, p.step_exponent);
     const glm::dvec2 uv = r.uv0 + t * (r.uv1 - r.uv0);
     const double ray_z = ray_depth(r.z0, r.z1, t);
-    double range = 0.0;
-    const double bz = surface_depth(bilinear(b, uv, &range), p.near, p.far, p.reverse_z);
-    const glm::dvec2 texel_f = uv * glm::dvec2(b.width, b.height);
+    const double margin = kDepthMarginRel * ray_z;
+    const double w = edge_fade(uv, p.edge_fade);
+
+    // The bilinear read: exact; over the weight quantisation alone; and over the quantisation,
+    // a float-sized position error (kTexelEdgeMargin) and a few ULP of filter arithmetic, with
+    // the float margin on the view distance.
+    Outcomes bw, bf;
+    bool b_exact = true;
+    if (use_bilinear) {
+      const double bd = bilinear(b, uv);
+      b_exact =
+          behind(ray_z, surface_depth(bd, p.near, p.far, p.reverse_z), r.tolerance, p.thickness);
+      double lo = bd, hi = bd;
+      if (weight_h > 0.0) bilinear_range(b, uv, weight_h, &lo, &hi);
+      bw = behind_range(lo, hi, ray_z, r.tolerance, p.thickness, 0.0, p);
+      bilinear_range(b, uv, weight_h + kTexelEdgeMargin, &lo, &hi);
+      const double ulps = 4.0 * std::ldexp(std::max(std::fabs(lo), std::fabs(hi)), -24);
+      bf = behind_range(lo - ulps, hi + ulps, ray_z, r.tolerance, p.thickness, margin, p);
+    }
+
     // The texels a float evaluation might pick: both sides of an edge within the margin.
+    const glm::dvec2 texel_f = uv * glm::dvec2(b.width, b.height);
     int xs[2], ys[2], nx = 0, ny = 0;
     for (double e : {-kTexelEdgeMargin, kTexelEdgeMargin}) {
       const int tx = std::clamp(static_cast<int>(std::floor(texel_f.x + e)), 0, b.width - 1);
@@ -320,53 +421,51 @@ inline double occlusion(const Buffers& b, int x, int y, const Params& p, Reads r
     }
     const int nominal_x = std::clamp(static_cast<int>(std::floor(texel_f.x)), 0, b.width - 1);
     const int nominal_y = std::clamp(static_cast<int>(std::floor(texel_f.y)), 0, b.height - 1);
-    // Depth margin: float rounding of the ray and surface depths, plus the filter's weight error
-    // converted to view distance (dz/dd = z^2 (1 - n/f) / n).
-    const double margin = kDepthMarginRel * ray_z;
-    const double bilinear_margin = margin + (bz > 0.0 ? bz * bz * (1.0 - p.near / p.far) / p.near *
-                                                            range * p.bilinear_weight_error
-                                                      : 0.0);
-    const auto near_edge = [&](double surface_z, double m) {
-      if (!(surface_z > 0.0)) return false;
-      const double d = ray_z - surface_z;
-      return std::fabs(d - r.tolerance) <= m || std::fabs(d - r.tolerance - p.thickness) <= m;
-    };
-    bool any_hit = false, all_hit = true, close = false;
+
+    bool tap_exact = false, tap_w_hit = false, tap_w_miss = false;
+    bool tap_can_hit = false, tap_can_miss = false;
+    bool any_exact = false, all_exact = true, nearest_close = false;
     for (int ix = 0; ix < nx; ++ix) {
       for (int iy = 0; iy < ny; ++iy) {
         const int tx = xs[ix], ty = ys[iy];
-        bool hit = false;
-        if (!(tx == x && ty == y)) {
+        // The receiver's own texel is skipped; with both reads off nothing is tested.
+        const bool skip = (tx == x && ty == y) || (!use_bilinear && !use_nearest);
+        bool n_exact = true, n_close = false;
+        if (use_nearest) {
           const double nzd = surface_depth(b.at(tx, ty), p.near, p.far, p.reverse_z);
-          hit = use_bilinear || use_nearest;
-          if (use_bilinear) hit = hit && behind(ray_z, bz, r.tolerance, p.thickness);
-          if (use_nearest) hit = hit && behind(ray_z, nzd, r.tolerance, p.thickness);
-          if (tx == nominal_x && ty == nominal_y) {
-            // Only a read that is used and whose other read does not already rule the tap out
-            // can flip it.
-            const bool b_ok = !use_bilinear || behind(ray_z, bz, r.tolerance, p.thickness);
-            const bool n_ok = !use_nearest || behind(ray_z, nzd, r.tolerance, p.thickness);
-            if (use_bilinear && n_ok && near_edge(bz, bilinear_margin)) close = true;
-            if (use_nearest && b_ok && near_edge(nzd, margin)) close = true;
-          }
+          n_exact = behind(ray_z, nzd, r.tolerance, p.thickness);
+          n_close = nzd > 0.0 && (std::fabs(ray_z - nzd - r.tolerance) <= margin ||
+                                  std::fabs(ray_z - nzd - r.tolerance - p.thickness) <= margin);
         }
-        any_hit = any_hit || hit;
-        all_hit = all_hit && hit;
+        const bool hit = !skip && b_exact && n_exact;
+        any_exact = any_exact || hit;
+        all_exact = all_exact && hit;
+        tap_can_hit = tap_can_hit || (!skip && bf.can_hit && (n_exact || n_close));
+        tap_can_miss = tap_can_miss || skip || bf.can_miss || !n_exact || n_close;
+        if (tx == nominal_x && ty == nominal_y) {
+          tap_exact = hit;
+          tap_w_hit = !skip && bw.can_hit && n_exact;
+          tap_w_miss = skip || bw.can_miss || !n_exact;
+          nearest_close = n_close && bf.can_hit;
+        }
       }
     }
-    const double w = edge_fade(uv, p.edge_fade);
-    if (all_hit && !close) sure = std::max(sure, w);
-    if (any_hit || close) maybe = std::max(maybe, w);
-    if (reasons && w > sure && (any_hit != all_hit || close)) {
-      if (any_hit != all_hit) *reasons |= kTexelEdge;
-      if (close) *reasons |= kDepthWindow;
+    if (tap_exact) o.exact = std::max(o.exact, w);
+    if (tap_w_hit) o.possible_w = std::max(o.possible_w, w);
+    if (!tap_w_miss) o.sure_w = std::max(o.sure_w, w);
+    if (tap_can_hit) o.possible = std::max(o.possible, w);
+    if (!tap_can_miss) o.sure = std::max(o.sure, w);
+    if (reasons && w > o.sure && tap_can_hit && tap_can_miss) {
+      const bool weight = tap_w_hit && tap_w_miss;
+      if (any_exact != all_exact) *reasons |= kTexelEdge;
+      if (weight) *reasons |= kBilinearWeight;
+      if (nearest_close || (bf.can_hit && bf.can_miss && !weight)) *reasons |= kDepthWindow;
       if (footprint_spread(b, uv, p.near, p.far, p.reverse_z) > r.tolerance + p.thickness) {
         *reasons |= kDiscontinuity;
       }
     }
   }
-  if (possible) *possible = maybe;
-  return sure;
+  return o;
 }
 
 }  // namespace detail
@@ -391,11 +490,15 @@ inline PixelResult march_pixel(const Buffers& b, int x, int y, const Params& p,
     }
     return out;
   }
-  double possible = 0.0;
   unsigned reasons = 0;
-  const double sure = detail::occlusion(b, x, y, p, reads, r, r.steps, &possible, &reasons);
-  out.mask = std::clamp(1.0 - p.intensity * sure, 0.0, 1.0);
-  if (possible != sure) {
+  const detail::Occlusion o = detail::occlusion(b, x, y, p, reads, r, r.steps, &reasons);
+  const auto mask = [&](double occlusion) {
+    return std::clamp(1.0 - p.intensity * occlusion, 0.0, 1.0);
+  };
+  out.mask = mask(o.exact);
+  out.mask_lo = mask(o.possible_w);
+  out.mask_hi = mask(o.sure_w);
+  if (o.possible != o.sure) {
     out.marginal = true;
     out.reasons |= reasons;
   }
@@ -406,9 +509,8 @@ inline PixelResult march_pixel(const Buffers& b, int x, int y, const Params& p,
       (frac <= kLengthMargin || frac >= 1.0 - kLengthMargin)) {
     for (std::uint32_t alt : {r.steps - 1, r.steps + 1}) {
       if (alt == 0 || alt > std::min(p.step_count, kMaxSteps)) continue;
-      double alt_possible = 0.0;
-      const double alt_sure = detail::occlusion(b, x, y, p, reads, r, alt, &alt_possible);
-      if (alt_sure != sure || alt_possible != possible) {
+      const detail::Occlusion a = detail::occlusion(b, x, y, p, reads, r, alt);
+      if (a.sure != o.sure || a.possible != o.possible) {
         out.marginal = true;
         out.reasons |= kStepCount;
       }

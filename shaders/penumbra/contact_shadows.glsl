@@ -120,10 +120,20 @@ vec2 contact_project_uv(vec3 view_position, float tan_half_fov_y, float aspect) 
 // near plane (view distance near_plane), the last depth a pixel can hold, just before the camera
 // plane where the projection breaks down. 0 when the origin itself is at or before the near
 // plane and the ray points backwards.
+//
+// "Towards the viewer" is read from the bits (sign clear, not +0, finite), not from a float
+// comparison: a GPU may flush a denormal to.z to 0 in any arithmetic or comparison (Vulkan lets
+// it), which would make the ray parallel to the near plane and skip the clamp, while the ray
+// really does approach the plane (by 0.034 over a length of FLT_MAX for to.z = 1e-40). A z
+// below FLT_MIN is clamped up to FLT_MIN: the length to the plane with the larger z is no longer
+// than the true one, so the ray still ends behind the plane, and every device computes the same
+// length whether it flushes or not.
 float contact_ray_length(vec3 origin, vec3 to_light, float max_distance, float near_plane) {
   float len = max(max_distance, 0.0);
-  if (to_light.z > 0.0 && -(origin.z + to_light.z * len) < near_plane) {
-    len = max((-origin.z - near_plane) / to_light.z, 0.0);
+  uint z_bits = floatBitsToUint(to_light.z);
+  if (z_bits != 0u && z_bits < 0x7f800000u) {
+    float dz = max(to_light.z, kContactMinNormal);
+    if (-(origin.z + dz * len) < near_plane) len = max((-origin.z - near_plane) / dz, 0.0);
   }
   return min(len, max(max_distance, 0.0));
 }
@@ -194,10 +204,17 @@ float contact_bias_tolerance(float depth_bias, float z, float n_dot_l) {
   return depth_bias * z / max(n_dot_l, kContactMinNdotL);
 }
 
-// The ray's view distance at t: 1 / mix(1 / z_start, 1 / z_end, t). The ray is interpolated
-// linearly in screen space, where 1 / z (not z) varies linearly, so this is exact.
+// a * (1 - t) + b * t for a, b >= 0 and t in [0, 1], written out: both terms are >= 0, so
+// nothing cancels and the result keeps the operands' relative precision (fused or not). mix()
+// may be evaluated as a + t * (b - a) (the H100 evidently does): for a = 5e5, b = 1e-6, t = 1
+// that is 5e5 - 5e5 = 0, not 1e-6, an inverse depth of 0 (a ray end at infinity).
+float contact_mix_positive(float a, float b, float t) { return a * (1.0 - t) + b * t; }
+
+// The ray's view distance at t: 1 / mix(1 / z_start, 1 / z_end, t) (contact_mix_positive). The
+// ray is interpolated linearly in screen space, where 1 / z (not z) varies linearly, so this is
+// exact.
 float contact_ray_depth(float inv_z_start, float inv_z_end, float t) {
-  return 1.0 / mix(inv_z_start, inv_z_end, t);
+  return 1.0 / contact_mix_positive(inv_z_start, inv_z_end, t);
 }
 
 // True when the ray at view distance ray_z is inside the occluder whose visible surface is at
@@ -237,7 +254,7 @@ float contact_edge_fade(vec2 uv, float fade_width) {
 // start inside its own surface), degenerate light direction or parameters, a ray shorter than a
 // pixel. Otherwise uv_segment = (uv_start, uv_end) and inv_z = (1 / z_start, 1 / z_end) of the
 // ray from the pixel's view position along light_dir, clamped before the camera plane and
-// clipped to the screen, and tolerance is the depth tolerance at the receiver.
+// clipped to the screen (both > 0), and tolerance is the depth tolerance at the receiver.
 uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p,
                        out vec4 uv_segment, out vec2 inv_z, out float tolerance) {
   uv_segment = vec4(0.0);
@@ -260,11 +277,13 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
   if (!(z1 > 0.0) || !contact_is_finite(z1)) return 0u;
   vec2 uv1 = contact_project_uv(end, p.tan_half_fov_y, p.aspect);
   if (!contact_is_finite(uv1.x) || !contact_is_finite(uv1.y)) return 0u;
-  float inv_z0 = 1.0 / z0;
+  // Both inverse depths stay >= FLT_MIN: 1 / z of a z beyond 1 / FLT_MIN (8.5e37) would be a
+  // denormal that a GPU may flush to 0 (an end at infinity).
+  float inv_z0 = max(1.0 / z0, kContactMinNormal);
   float inv_z1 = 1.0 / z1;
   float t_exit = contact_screen_exit(uv0, uv1);
   uv1 = mix(uv0, uv1, t_exit);
-  inv_z1 = mix(inv_z0, inv_z1, t_exit);
+  inv_z1 = max(contact_mix_positive(inv_z0, inv_z1, t_exit), kContactMinNormal);
 
   uint steps = contact_step_count(length((uv1 - uv0) * p.extent), p.step_count);
   if (steps == 0u) return 0u;
