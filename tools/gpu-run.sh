@@ -1,24 +1,38 @@
 #!/usr/bin/env bash
-# Runs every test binary of .gpu-bundle on PENUMBRA_DEVICE (default gpu) with the validation
-# layer, then the benchmarks and penumbra-view on each shipped scene; logs go to ${OUT:-out/gpu}.
-# Expects /work/main to be (or link to) this repository, as the binaries were built there.
+# Runs the binaries of .gpu-bundle (tools/gpu-bundle.sh) on another machine with a GPU, from a
+# copy of this repository: every test binary with the validation layer on, the benchmarks, and
+# penumbra-view on each shipped scene. Prints a summary; logs go to ${OUT:-out/gpu}/logs.tar.gz.
+# The binaries were built in /work/main: link the copy there first if it lives elsewhere.
 set -uo pipefail
 out=${OUT:-out/gpu}
+logs=$(mktemp -d)
 mkdir -p "$out"
-export PENUMBRA_DEVICE=${PENUMBRA_DEVICE:-gpu} PENUMBRA_VALIDATION=1
 tar -xJf .gpu-bundle/bin.tar.xz
-export MESA_SHADER_CACHE_DIR=/tmp/mesa-cache
+export LD_LIBRARY_PATH=$PWD/build/lib:${LD_LIBRARY_PATH:-}
+if [[ ! -d /usr/share/glmark2/models ]]; then
+  mkdir -p /usr/share/glmark2 && cp -r build/models /usr/share/glmark2/models
+fi
+export PENUMBRA_DEVICE=${PENUMBRA_DEVICE:-gpu}
+export MESA_SHADER_CACHE_DIR=${MESA_SHADER_CACHE_DIR:-/tmp/mesa-cache}
+build/runtime/penumbra-view --list-devices
 fail=0
-summary="$out/tests.txt"
-: > "$summary"
-for t in $(find build -type f -executable \( -path "*/tests/*" -o -path "*/shader_tests/*" \) | sort); do
-  name=$(basename "$t")
-  if "$t" > "$out/$name.log" 2>&1; then
-    echo "PASS $name $(grep -E '^\[  PASSED  \]' "$out/$name.log")" >> "$summary"
-  else
-    echo "FAIL $name" >> "$summary"; fail=1
-    grep -E "Failure|FAILED|error" "$out/$name.log" | head -20 >> "$summary"
-  fi
+for t in $(find build -type f -executable \( -path "*/tests/*" -o -path "*/shader_tests/*" \) | sort | grep -E "${PENUMBRA_GPU_TESTS:-.}"); do
+  n=$(basename "$t")
+  PENUMBRA_VALIDATION=1 timeout 300 "$t" > "$logs/$n.log" 2>&1
+  rc=$?
+  [[ $rc == 0 ]] || fail=1
+  echo "$n rc=$rc $(grep -E '^\[  (PASSED|FAILED)  \]' "$logs/$n.log" | head -1)"
 done
-cat "$summary"
+{
+  PENUMBRA_VALIDATION=0 build/tools/penumbra-startup-bench
+  PENUMBRA_VALIDATION=0 build/tools/penumbra-harness-bench --same-functions
+  PENUMBRA_VALIDATION=0 build/tools/penumbra-harness-bench --same-functions
+} > "$out/bench.txt" 2>&1
+for s in default grazing space indoor; do
+  PENUMBRA_VALIDATION=1 build/runtime/penumbra-view --headless --scene "$s" --frames 10 \
+    --size 1280x720 --out "$logs/view-$s" > "$logs/view-$s.txt" 2>&1 || fail=1
+  cat "$logs/view-$s.txt" >> "$out/view.txt"
+done
+cp "$logs/view-default/lit.png" "$out/default-lit.png" 2>/dev/null
+tar -czf "$out/logs.tar.gz" -C "$logs" .
 exit $fail
