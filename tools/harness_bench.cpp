@@ -8,15 +8,14 @@
 // unique); warm numbers from a second process-level engine for the same wrapper text after the
 // first was dropped... which the harness never does, so "warm" is measured with a fresh process
 // run: start the bench twice, the second run's "first use" hits Mesa's disk cache.
-#include <penumbra/core/error.hpp>
-#include <penumbra/testing/gpu_test.hpp>
-#include <penumbra/testing/shader_function.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
+#include <penumbra/core/error.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
 #include <random>
 #include <string>
 #include <vector>
@@ -53,7 +52,8 @@ int run(int reps, bool fixed_salt) {
     penumbra::testing::FunctionOptions o;
     o.defines = {{"BENCH_SALT", std::to_string(rng() % 1000000) + ".0"}};
     auto t = Clock::now();
-    penumbra::testing::ShaderFunction<float(float, glm::vec2)> f(dir + "/bench.glsl", "bench_small", o);
+    penumbra::testing::ShaderFunction<float(float, glm::vec2)> f(dir + "/bench.glsl", "bench_small",
+                                                                 o);
     construct.push_back(ms_since(t));
     auto t2 = Clock::now();
     (void)f(1.0f, glm::vec2(2.0f, 3.0f));
@@ -67,7 +67,8 @@ int run(int reps, bool fixed_salt) {
 
   penumbra::testing::FunctionOptions o;
   o.defines = {{"BENCH_SALT", "1.0"}};
-  penumbra::testing::ShaderFunction<float(float, glm::vec2)> f(dir + "/bench.glsl", "bench_small", o);
+  penumbra::testing::ShaderFunction<float(float, glm::vec2)> f(dir + "/bench.glsl", "bench_small",
+                                                               o);
   std::printf("\nthroughput of float(float, vec2) (median of %d runs)\n", reps);
   std::printf("  %10s %12s %14s\n", "cases", "ms/run", "cases/s");
   for (size_t n : {size_t{1}, size_t{1000}, size_t{1000000}}) {

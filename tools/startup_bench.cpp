@@ -5,16 +5,15 @@
 //
 // Run it twice: once as is (warm cache numbers) and once with MESA_SHADER_CACHE_DISABLE=true
 // (the "warm" column then shows what a cold cache costs every time).
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/shader/compiler.hpp>
-
-#include <algorithm>
-#include <chrono>
-#include <cstdio>
-#include <cstdlib>
 #include <random>
 #include <string>
 #include <vector>

@@ -1,8 +1,7 @@
+#include <cmath>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/commands.hpp>
-
-#include <cmath>
 
 namespace penumbra::gpu {
 
@@ -72,9 +71,13 @@ TimestampPool::TimestampPool(Context& ctx, uint32_t capacity) : ctx_(ctx), capac
   check(vkCreateQueryPool(ctx.device(), &qi, nullptr, &pool_), "vkCreateQueryPool");
 }
 
-TimestampPool::~TimestampPool() { vkDestroyQueryPool(ctx_.device(), pool_, nullptr); }
+TimestampPool::~TimestampPool() {
+  vkDestroyQueryPool(ctx_.device(), pool_, nullptr);
+}
 
-void TimestampPool::reset(VkCommandBuffer cmd) { vkCmdResetQueryPool(cmd, pool_, 0, capacity_); }
+void TimestampPool::reset(VkCommandBuffer cmd) {
+  vkCmdResetQueryPool(cmd, pool_, 0, capacity_);
+}
 
 void TimestampPool::write(VkCommandBuffer cmd, uint32_t index, VkPipelineStageFlags2 stage) {
   if (index >= capacity_) {

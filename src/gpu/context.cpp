@@ -1,12 +1,11 @@
-#include <penumbra/core/error.hpp>
-#include <penumbra/gpu/check.hpp>
-#include <penumbra/gpu/context.hpp>
-
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <penumbra/core/error.hpp>
+#include <penumbra/gpu/check.hpp>
+#include <penumbra/gpu/context.hpp>
 #include <sstream>
 #include <vector>
 
@@ -32,10 +31,11 @@ VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBit
                                               void* user) {
   auto* sink = static_cast<ValidationSink*>(user);
   ValidationMessage m;
-  m.severity = (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) != 0     ? Severity::error
-               : (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) != 0 ? Severity::warning
-               : (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_INFO_BIT_EXT) != 0    ? Severity::info
-                                                                                   : Severity::verbose;
+  m.severity = (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_ERROR_BIT_EXT) != 0 ? Severity::error
+               : (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_WARNING_BIT_EXT) != 0
+                   ? Severity::warning
+               : (severity & VK_DEBUG_UTILS_MESSAGE_SEVERITY_INFO_BIT_EXT) != 0 ? Severity::info
+                                                                                : Severity::verbose;
   m.id = data->pMessageIdName != nullptr ? data->pMessageIdName : "";
   m.message = data->pMessage != nullptr ? data->pMessage : "";
   if (m.severity == Severity::warning || m.severity == Severity::error) {
@@ -52,8 +52,9 @@ bool layer_available(const char* name) {
   vkEnumerateInstanceLayerProperties(&count, nullptr);
   std::vector<VkLayerProperties> layers(count);
   vkEnumerateInstanceLayerProperties(&count, layers.data());
-  return std::any_of(layers.begin(), layers.end(),
-                     [&](const VkLayerProperties& l) { return std::strcmp(l.layerName, name) == 0; });
+  return std::any_of(layers.begin(), layers.end(), [&](const VkLayerProperties& l) {
+    return std::strcmp(l.layerName, name) == 0;
+  });
 }
 
 struct Candidate {
@@ -111,15 +112,16 @@ std::vector<Candidate> enumerate(VkInstance instance) {
 }
 
 std::string describe_line(const DeviceInfo& d) {
-  return std::to_string(d.index) + ": " + d.name + " (" + to_string(d.type) + ", " +
-         d.driver_name + ")";
+  return std::to_string(d.index) + ": " + d.name + " (" + to_string(d.type) + ", " + d.driver_name +
+         ")";
 }
 
 const Candidate& choose(const std::vector<Candidate>& all, const std::string& selector) {
   auto usable = [](const Candidate& c) { return c.info.queue_family != UINT32_MAX; };
   std::string available;
   for (const auto& c : all) available += "\n  " + describe_line(c.info);
-  if (all.empty()) throw Error("no Vulkan physical device found (is mesa-vulkan-drivers installed?)");
+  if (all.empty())
+    throw Error("no Vulkan physical device found (is mesa-vulkan-drivers installed?)");
 
   const std::string sel = lower(selector);
   const Candidate* pick = nullptr;
@@ -141,7 +143,8 @@ const Candidate& choose(const std::vector<Candidate>& all, const std::string& se
       if (usable(c) && c.info.type == VK_PHYSICAL_DEVICE_TYPE_DISCRETE_GPU && !pick) pick = &c;
     for (const auto& c : all)
       if (usable(c) && !c.info.is_cpu && !pick) pick = &c;
-  } else if (std::all_of(sel.begin(), sel.end(), [](unsigned char ch) { return std::isdigit(ch); })) {
+  } else if (std::all_of(sel.begin(), sel.end(),
+                         [](unsigned char ch) { return std::isdigit(ch); })) {
     const unsigned long idx = std::stoul(sel);
     if (idx < all.size() && usable(all[idx])) pick = &all[idx];
   } else {
@@ -295,7 +298,9 @@ Context::Context(const ContextOptions& options) {
   if (options.print_report) std::fprintf(stderr, "%s", report().c_str());
 }
 
-Context::~Context() { destroy(); }
+Context::~Context() {
+  destroy();
+}
 
 void Context::destroy() {
   if (device_ != VK_NULL_HANDLE) {
@@ -328,18 +333,18 @@ std::string Context::report() const {
     << "timestamps:  period " << l.timestampPeriod << " ns, " << info_.timestamp_valid_bits
     << " valid bits\n"
     << "precision:   subTexel " << l.subTexelPrecisionBits << " bits, mipmap "
-    << l.mipmapPrecisionBits << " bits, viewportSubPixel " << l.viewportSubPixelBits
-    << " bits\n"
+    << l.mipmapPrecisionBits << " bits, viewportSubPixel " << l.viewportSubPixelBits << " bits\n"
     << "compute:     max workgroup invocations " << l.maxComputeWorkGroupInvocations
     << ", max group count x " << l.maxComputeWorkGroupCount[0] << "\n"
-    << "features:    depthClamp " << (info_.depth_clamp ? "yes" : "no")
-    << ", D32 linear filter " << (info_.linear_filter_d32 ? "yes" : "no") << "\n";
+    << "features:    depthClamp " << (info_.depth_clamp ? "yes" : "no") << ", D32 linear filter "
+    << (info_.linear_filter_d32 ? "yes" : "no") << "\n";
   const char* cache = std::getenv("MESA_SHADER_CACHE_DIR");
   const char* disabled = std::getenv("MESA_SHADER_CACHE_DISABLE");
   if (info_.is_cpu) {
     s << "mesa cache:  "
-      << ((disabled != nullptr && std::string(disabled) == "true") ? std::string("disabled")
-                                                                   : std::string(cache ? cache : "default"))
+      << ((disabled != nullptr && std::string(disabled) == "true")
+              ? std::string("disabled")
+              : std::string(cache ? cache : "default"))
       << "\n";
   }
   return s.str();

@@ -45,7 +45,9 @@ ShaderModule::ShaderModule(Context& ctx, std::span<const uint32_t> spirv) : ctx_
   check(vkCreateShaderModule(ctx.device(), &si, nullptr, &module_), "vkCreateShaderModule");
 }
 
-ShaderModule::~ShaderModule() { vkDestroyShaderModule(ctx_.device(), module_, nullptr); }
+ShaderModule::~ShaderModule() {
+  vkDestroyShaderModule(ctx_.device(), module_, nullptr);
+}
 
 ComputePipeline::ComputePipeline(Context& ctx, std::span<const uint32_t> spirv,
                                  const PipelineLayout& layout, Specialization spec,
@@ -63,7 +65,9 @@ ComputePipeline::ComputePipeline(Context& ctx, std::span<const uint32_t> spirv,
         "vkCreateComputePipelines");
 }
 
-ComputePipeline::~ComputePipeline() { vkDestroyPipeline(ctx_.device(), pipeline_, nullptr); }
+ComputePipeline::~ComputePipeline() {
+  vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
+}
 
 GraphicsPipeline::GraphicsPipeline(Context& ctx, GraphicsPipelineDesc desc,
                                    const PipelineLayout& layout, VkPipelineCache cache)
@@ -90,7 +94,8 @@ GraphicsPipeline::GraphicsPipeline(Context& ctx, GraphicsPipelineDesc desc,
     stages.push_back(st);
   }
 
-  VkPipelineVertexInputStateCreateInfo vi{VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
+  VkPipelineVertexInputStateCreateInfo vi{
+      VK_STRUCTURE_TYPE_PIPELINE_VERTEX_INPUT_STATE_CREATE_INFO};
   vi.vertexBindingDescriptionCount = static_cast<uint32_t>(desc.vertex_input.bindings.size());
   vi.pVertexBindingDescriptions = desc.vertex_input.bindings.data();
   vi.vertexAttributeDescriptionCount = static_cast<uint32_t>(desc.vertex_input.attributes.size());
@@ -159,12 +164,14 @@ GraphicsPipeline::GraphicsPipeline(Context& ctx, GraphicsPipelineDesc desc,
         "vkCreateGraphicsPipelines");
 }
 
-GraphicsPipeline::~GraphicsPipeline() { vkDestroyPipeline(ctx_.device(), pipeline_, nullptr); }
+GraphicsPipeline::~GraphicsPipeline() {
+  vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
+}
 
 DescriptorPool::DescriptorPool(Context& ctx, uint32_t max_sets) : ctx_(ctx) {
   const uint32_t n = max_sets * 16;
   VkDescriptorPoolSize sizes[] = {
-      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n},        {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n},
+      {VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, n},         {VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, n},
       {VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, n}, {VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, n},
       {VK_DESCRIPTOR_TYPE_SAMPLED_IMAGE, n},          {VK_DESCRIPTOR_TYPE_SAMPLER, n},
   };
@@ -175,7 +182,9 @@ DescriptorPool::DescriptorPool(Context& ctx, uint32_t max_sets) : ctx_(ctx) {
   check(vkCreateDescriptorPool(ctx.device(), &pi, nullptr, &pool_), "vkCreateDescriptorPool");
 }
 
-DescriptorPool::~DescriptorPool() { vkDestroyDescriptorPool(ctx_.device(), pool_, nullptr); }
+DescriptorPool::~DescriptorPool() {
+  vkDestroyDescriptorPool(ctx_.device(), pool_, nullptr);
+}
 
 VkDescriptorSet DescriptorPool::allocate(VkDescriptorSetLayout layout) {
   VkDescriptorSetAllocateInfo ai{VK_STRUCTURE_TYPE_DESCRIPTOR_SET_ALLOCATE_INFO};
@@ -187,7 +196,9 @@ VkDescriptorSet DescriptorPool::allocate(VkDescriptorSetLayout layout) {
   return set;
 }
 
-void DescriptorPool::reset() { vkResetDescriptorPool(ctx_.device(), pool_, 0); }
+void DescriptorPool::reset() {
+  vkResetDescriptorPool(ctx_.device(), pool_, 0);
+}
 
 DescriptorWriter& DescriptorWriter::buffer(uint32_t binding, VkBuffer buffer, VkDescriptorType type,
                                            VkDeviceSize offset, VkDeviceSize range) {

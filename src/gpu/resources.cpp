@@ -1,19 +1,18 @@
+#include <cstring>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/resources.hpp>
-
-#include <cstring>
 #include <utility>
 
 namespace penumbra::gpu {
 namespace {
 
 VkDeviceMemory allocate(Context& ctx, const VkMemoryRequirements& req, MemoryUse use) {
-  VkMemoryPropertyFlags props = use == MemoryUse::host
-                                    ? (VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT |
-                                       VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)
-                                    : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
+  VkMemoryPropertyFlags props =
+      use == MemoryUse::host
+          ? (VK_MEMORY_PROPERTY_HOST_VISIBLE_BIT | VK_MEMORY_PROPERTY_HOST_COHERENT_BIT)
+          : VK_MEMORY_PROPERTY_DEVICE_LOCAL_BIT;
   VkMemoryAllocateInfo ai{VK_STRUCTURE_TYPE_MEMORY_ALLOCATE_INFO};
   ai.allocationSize = req.size;
   ai.memoryTypeIndex = ctx.memory_type(req.memoryTypeBits, props);
@@ -76,7 +75,9 @@ Buffer::Buffer(Context& ctx, VkDeviceSize size, VkBufferUsageFlags usage, Memory
   }
 }
 
-Buffer::~Buffer() { release(); }
+Buffer::~Buffer() {
+  release();
+}
 
 void Buffer::release() {
   if (ctx_ == nullptr) return;
@@ -149,9 +150,9 @@ void Buffer::read(std::span<std::byte> bytes, VkDeviceSize offset) const {
 // ---- formats ----------------------------------------------------------------------------------
 
 bool is_depth_format(VkFormat f) {
-  return f == VK_FORMAT_D16_UNORM || f == VK_FORMAT_D32_SFLOAT || f == VK_FORMAT_X8_D24_UNORM_PACK32 ||
-         f == VK_FORMAT_D24_UNORM_S8_UINT || f == VK_FORMAT_D32_SFLOAT_S8_UINT ||
-         f == VK_FORMAT_D16_UNORM_S8_UINT;
+  return f == VK_FORMAT_D16_UNORM || f == VK_FORMAT_D32_SFLOAT ||
+         f == VK_FORMAT_X8_D24_UNORM_PACK32 || f == VK_FORMAT_D24_UNORM_S8_UINT ||
+         f == VK_FORMAT_D32_SFLOAT_S8_UINT || f == VK_FORMAT_D16_UNORM_S8_UINT;
 }
 
 bool has_stencil(VkFormat f) {
@@ -243,7 +244,9 @@ Image::Image(Context& ctx, const ImageDesc& desc) : ctx_(&ctx), desc_(desc) {
   }
 }
 
-Image::~Image() { release(); }
+Image::~Image() {
+  release();
+}
 
 void Image::release() {
   if (ctx_ == nullptr) return;
@@ -320,8 +323,8 @@ void Image::transition(VkCommandBuffer cmd, VkImageLayout new_layout) {
 }
 
 void Image::upload(std::span<const std::byte> texels, VkImageLayout final_layout) {
-  const size_t expected = size_t{format_texel_size(desc_.format)} * desc_.width * desc_.height *
-                          desc_.layers;
+  const size_t expected =
+      size_t{format_texel_size(desc_.format)} * desc_.width * desc_.height * desc_.layers;
   if (texels.size() != expected) {
     throw Error("Image::upload: got " + std::to_string(texels.size()) + " bytes, expected " +
                 std::to_string(expected) + " (" + std::to_string(desc_.width) + "x" +
@@ -329,7 +332,9 @@ void Image::upload(std::span<const std::byte> texels, VkImageLayout final_layout
                 std::to_string(format_texel_size(desc_.format)) + " bytes)");
   }
   if (has_stencil(desc_.format)) {
-    throw Error("Image::upload: combined depth/stencil formats are not uploadable; use D32_SFLOAT, D16_UNORM or X8_D24");
+    throw Error(
+        "Image::upload: combined depth/stencil formats are not uploadable; use D32_SFLOAT, "
+        "D16_UNORM or X8_D24");
   }
   Buffer staging(*ctx_, texels.size(), 0, MemoryUse::host);
   staging.write(texels);
@@ -352,10 +357,11 @@ void Image::upload_floats(std::span<const float> values, VkImageLayout final_lay
 }
 
 std::vector<std::byte> Image::download() {
-  const size_t bytes = size_t{format_texel_size(desc_.format)} * desc_.width * desc_.height *
-                       desc_.layers;
+  const size_t bytes =
+      size_t{format_texel_size(desc_.format)} * desc_.width * desc_.height * desc_.layers;
   Buffer staging(*ctx_, bytes, 0, MemoryUse::host);
-  const VkImageLayout keep = layout_ == VK_IMAGE_LAYOUT_UNDEFINED ? VK_IMAGE_LAYOUT_GENERAL : layout_;
+  const VkImageLayout keep =
+      layout_ == VK_IMAGE_LAYOUT_UNDEFINED ? VK_IMAGE_LAYOUT_GENERAL : layout_;
   submit_one_shot(*ctx_, [&](VkCommandBuffer cmd) {
     transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     VkBufferImageCopy region{};

@@ -1,26 +1,24 @@
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <functional>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/packing.hpp>
+#include <map>
+#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
+#include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/shadow/cascades.hpp>
 #include <penumbra/shadow/local_lights.hpp>
 #include <penumbra/shadow/pack.hpp>
-
-#include <algorithm>
-#include <cmath>
-#include <cstring>
-#include <glm/gtc/matrix_transform.hpp>
-#include <glm/gtc/packing.hpp>
-#include <functional>
-#include <map>
 #include <set>
-#include <optional>
 #include <sstream>
-
-#include <penumbra/render/contact_shadows.hpp>
 
 namespace penumbra::render {
 namespace fs = std::filesystem;
@@ -45,7 +43,9 @@ struct Draw {
   bool casts;
 };
 
-glm::dvec3 to_d(glm::vec3 v) { return glm::dvec3(v); }
+glm::dvec3 to_d(glm::vec3 v) {
+  return glm::dvec3(v);
+}
 
 // Reverse-Z (or standard) perspective for the camera, Vulkan clip z in [0, 1], y down in NDC
 // handled by the viewport convention below (we flip y in the projection so +Y is up on screen).
@@ -66,7 +66,9 @@ glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_
   return glm::mat4(p);
 }
 
-VkVertexInputBindingDescription vertex_binding() { return {0, sizeof(scene::Vertex), VK_VERTEX_INPUT_RATE_VERTEX}; }
+VkVertexInputBindingDescription vertex_binding() {
+  return {0, sizeof(scene::Vertex), VK_VERTEX_INPUT_RATE_VERTEX};
+}
 
 gpu::VertexInput vertex_input() {
   gpu::VertexInput v;
@@ -225,8 +227,9 @@ struct Renderer::Impl {
     for (const auto& f : changed) files.insert(fs::weakly_canonical(f));
     bool waited = false;
     for (auto& r : records) {
-      const bool affected = std::any_of(files.begin(), files.end(),
-                                        [&](const fs::path& f) { return r.dependencies.count(f) > 0; });
+      const bool affected = std::any_of(files.begin(), files.end(), [&](const fs::path& f) {
+        return r.dependencies.count(f) > 0;
+      });
       if (!affected) continue;
       std::set<fs::path> deps;
       Spirvs spirv;
@@ -338,9 +341,11 @@ struct Renderer::Impl {
     const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
 
     // Geometry: prepass + forward share the vertex stage and the frame block.
-    geo_layout = std::make_unique<gpu::PipelineLayout>(
-        ctx, std::vector<std::vector<gpu::BindingDesc>>{{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}},
-        uint32_t(sizeof(DrawPush)), all);
+    geo_layout =
+        std::make_unique<gpu::PipelineLayout>(ctx,
+                                              std::vector<std::vector<gpu::BindingDesc>>{
+                                                  {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}},
+                                              uint32_t(sizeof(DrawPush)), all);
     for (bool masked : {false, true}) {
       if (masked && !req.masked_materials) continue;
       add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
@@ -359,7 +364,9 @@ struct Renderer::Impl {
                    });
     }
     geo_set = pool.allocate(geo_layout->set_layout(0));
-    gpu::DescriptorWriter().buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, geo_set);
+    gpu::DescriptorWriter()
+        .buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .update(ctx, geo_set);
     report.passes.push_back("prepass: depth + normals");
 
     if (req.sun_shadows) build_sun();
@@ -373,8 +380,9 @@ struct Renderer::Impl {
   void build_sun() {
     const uint32_t res = scene.shadows.resolution;
     const uint32_t n = req.cascades;
-    sun_map = make_image("sun-shadow-map", gpu::ImageKind::image_2d_array, kDepthFormat, res, res,
-                         n, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+    sun_map =
+        make_image("sun-shadow-map", gpu::ImageKind::image_2d_array, kDepthFormat, res, res, n,
+                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
     shadow_ubo = gpu::Buffer(ctx, sizeof(shadow::ShadowGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     shadow_layout = std::make_unique<gpu::PipelineLayout>(
         ctx,
@@ -392,8 +400,8 @@ struct Renderer::Impl {
                      if (masked) d.fragment_spirv = spirv[1];
                      d.vertex_input = vertex_input();
                      d.depth_format = kDepthFormat;
-                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
-                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_compare =
+                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
                      d.depth_bias = true;
                      d.depth_clamp = ctx.info().depth_clamp;
                      d.cull = VK_CULL_MODE_NONE;
@@ -402,24 +410,27 @@ struct Renderer::Impl {
                    });
     }
     shadow_set = pool.allocate(shadow_layout->set_layout(0));
-    gpu::DescriptorWriter().buffer(0, shadow_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, shadow_set);
-    report.passes.push_back("sun-shadow: " + std::to_string(n) + " cascade(s) " + std::to_string(res) + "^2");
+    gpu::DescriptorWriter()
+        .buffer(0, shadow_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .update(ctx, shadow_set);
+    report.passes.push_back("sun-shadow: " + std::to_string(n) + " cascade(s) " +
+                            std::to_string(res) + "^2");
 
     info = make_image("shadow-info", gpu::ImageKind::image_2d, kInfoFormat, width, height, 1,
                       VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
     resolve_layout = std::make_unique<gpu::PipelineLayout>(
-        ctx,
-        std::vector<std::vector<gpu::BindingDesc>>{
-            {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-             {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}}});
-    add_pipeline("shadow-resolve", {{"render/shadow_resolve.comp", {}}}, [this](const Spirvs& spirv) {
-      resolve = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], *resolve_layout);
-    });
+        ctx, std::vector<std::vector<gpu::BindingDesc>>{
+                 {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+                  {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}}});
+    add_pipeline("shadow-resolve", {{"render/shadow_resolve.comp", {}}},
+                 [this](const Spirvs& spirv) {
+                   resolve = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], *resolve_layout);
+                 });
     resolve_set = pool.allocate(resolve_layout->set_layout(0));
     gpu::DescriptorWriter()
         .buffer(0, frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
@@ -438,8 +449,9 @@ struct Renderer::Impl {
     uint32_t res = 16;
     for (const auto& s : scene.spots)
       if (s.shadows) res = std::max(res, s.resolution);
-    gpu::Image arr = make_image("spot-shadow-maps", gpu::ImageKind::image_2d_array, kDepthFormat, res,
-                                res, n, VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+    gpu::Image arr =
+        make_image("spot-shadow-maps", gpu::ImageKind::image_2d_array, kDepthFormat, res, res, n,
+                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
     spot_maps.push_back(std::move(arr));
     spot_ubo = gpu::Buffer(ctx, sizeof(shadow::SpotShadowGpu) * kMaxSpotLights,
                            VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
@@ -459,8 +471,8 @@ struct Renderer::Impl {
                      if (masked) d.fragment_spirv = spirv[1];
                      d.vertex_input = vertex_input();
                      d.depth_format = kDepthFormat;
-                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
-                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_compare =
+                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
                      d.depth_bias = true;
                      d.cull = VK_CULL_MODE_NONE;
                      (masked ? spot_masked : spot_opaque) =
@@ -468,8 +480,11 @@ struct Renderer::Impl {
                    });
     }
     spot_set = pool.allocate(spot_layout->set_layout(0));
-    gpu::DescriptorWriter().buffer(0, spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, spot_set);
-    report.passes.push_back("spot-shadow: " + std::to_string(n) + " map(s) " + std::to_string(res) + "^2");
+    gpu::DescriptorWriter()
+        .buffer(0, spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .update(ctx, spot_set);
+    report.passes.push_back("spot-shadow: " + std::to_string(n) + " map(s) " + std::to_string(res) +
+                            "^2");
   }
 
   void build_points() {
@@ -478,9 +493,9 @@ struct Renderer::Impl {
     for (const auto& p : scene.points)
       if (p.shadows) res = std::max(res, p.resolution);
     // One cube array: the forward pass indexes it by layer, not by descriptor.
-    point_maps.push_back(make_image("point-shadow-cubes", gpu::ImageKind::cube_array, kDepthFormat, res,
-                                    res, 6 * n,
-                                    VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT));
+    point_maps.push_back(
+        make_image("point-shadow-cubes", gpu::ImageKind::cube_array, kDepthFormat, res, res, 6 * n,
+                   VK_IMAGE_USAGE_DEPTH_STENCIL_ATTACHMENT_BIT | VK_IMAGE_USAGE_SAMPLED_BIT));
     point_ubo = gpu::Buffer(ctx, sizeof(shadow::PointShadowGpu) * kMaxPointLights,
                             VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     point_layout = std::make_unique<gpu::PipelineLayout>(
@@ -496,13 +511,15 @@ struct Renderer::Impl {
                    d.fragment_spirv = spirv[1];
                    d.vertex_input = vertex_input();
                    d.depth_format = kDepthFormat;
-                   d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
-                                               : VK_COMPARE_OP_LESS_OR_EQUAL;
+                   d.depth_compare =
+                       reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
                    d.cull = VK_CULL_MODE_NONE;  // cube face views are mirrored
                    point_pipe = std::make_unique<gpu::GraphicsPipeline>(ctx, d, *point_layout);
                  });
     point_set = pool.allocate(point_layout->set_layout(0));
-    gpu::DescriptorWriter().buffer(0, point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER).update(ctx, point_set);
+    gpu::DescriptorWriter()
+        .buffer(0, point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+        .update(ctx, point_set);
     report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces");
   }
 
@@ -533,8 +550,8 @@ struct Renderer::Impl {
                    contact = std::move(pass);
                    bind_contact_mask();
                  });
-    report.passes.push_back("contact-shadows: compute (" + std::to_string(desc.settings.step_count) +
-                            " steps)");
+    report.passes.push_back("contact-shadows: compute (" +
+                            std::to_string(desc.settings.step_count) + " steps)");
     report.images.push_back("contact-mask " + std::to_string(width) + "x" + std::to_string(height) +
                             " R8 + resolved depth R32F");
   }
@@ -544,9 +561,13 @@ struct Renderer::Impl {
   void bind_contact_mask() {
     if (!contact) return;
     if (forward_set != VK_NULL_HANDLE)
-      gpu::DescriptorWriter().combined_image(2, contact->mask()->view(), nearest.handle()).update(ctx, forward_set);
+      gpu::DescriptorWriter()
+          .combined_image(2, contact->mask()->view(), nearest.handle())
+          .update(ctx, forward_set);
     if (tonemap_set != VK_NULL_HANDLE)
-      gpu::DescriptorWriter().combined_image(3, contact->mask()->view(), nearest.handle()).update(ctx, tonemap_set);
+      gpu::DescriptorWriter()
+          .combined_image(3, contact->mask()->view(), nearest.handle())
+          .update(ctx, tonemap_set);
   }
 
   bool contact_active() const { return contact != nullptr; }
@@ -554,8 +575,8 @@ struct Renderer::Impl {
   void record_contact(VkCommandBuffer cmd) {
     ContactShadowFrame f;
     const auto cam = shadow_camera();
-    f.camera = ContactCamera::from(cam, reverse_z ? shadow::DepthConvention::reverse_z
-                                                  : shadow::DepthConvention::standard);
+    f.camera = ContactCamera::from(
+        cam, reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard);
     f.light_dir_view = to_contact_view(cam, -to_d(scene.sun->direction));
     f.frame = frame.mode.x;
     contact->record(cmd, depth, normal, f);
@@ -598,8 +619,8 @@ struct Renderer::Impl {
                      d.depth_write = false;
                      // The prepass wrote the nearest surface; "not behind it" rather than EQUAL
                      // tolerates last-bit differences between two pipelines.
-                     d.depth_compare = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL
-                                                 : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_compare =
+                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
                      d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
                      (masked ? forward_masked : forward_opaque) =
                          std::make_unique<gpu::GraphicsPipeline>(ctx, d, *forward_layout);
@@ -623,12 +644,16 @@ struct Renderer::Impl {
   }
 
   void build_tonemap() {
-    std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-                                    {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
-                                    {4, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}};
-    if (req.sun_shadows) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
-    if (contact_active()) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
-    tonemap_layout = std::make_unique<gpu::PipelineLayout>(ctx, std::vector<std::vector<gpu::BindingDesc>>{b});
+    std::vector<gpu::BindingDesc> b{
+        {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+        {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
+        {4, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, VK_SHADER_STAGE_COMPUTE_BIT}};
+    if (req.sun_shadows)
+      b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
+    if (contact_active())
+      b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
+    tonemap_layout =
+        std::make_unique<gpu::PipelineLayout>(ctx, std::vector<std::vector<gpu::BindingDesc>>{b});
     const auto defines = std::vector<shader::Define>{light_defines()[0], light_defines()[1]};
     add_pipeline(variant("tonemap", defines), {{"render/tonemap.comp", defines}},
                  [this](const Spirvs& spirv) {
@@ -681,11 +706,15 @@ struct Renderer::Impl {
     frame.inv_view_proj = glm::inverse(frame.view_proj);
     frame.camera_position = glm::vec4(0, 0, 0, 1);
     frame.camera_forward = glm::vec4(glm::normalize(c.target - c.position), 0);
-    frame.viewport = glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
-    frame.projection = glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
+    frame.viewport =
+        glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+    frame.projection =
+        glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
     const auto& sh = scene.shadows;
-    frame.bias = glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.constant_bias * 20.0f);
-    frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f, std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+    frame.bias = glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias,
+                           sh.constant_bias * 20.0f);
+    frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f,
+                                    std::max(1.0f, float(sh.pcf_radius) + 0.5f));
     frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
                             uint32_t(scene.render.view));
     frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);
@@ -704,7 +733,8 @@ struct Renderer::Impl {
       if (spots == kMaxSpotLights) break;
       LightGpu& l = frame.spots[spots++];
       l.position_range = glm::vec4(glm::vec3(to_d(s.position) - origin), s.range);
-      l.direction_cos = glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
+      l.direction_cos =
+          glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
       l.color_intensity = glm::vec4(s.color, s.intensity);
       l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, 0, 0);
       if (s.shadows && spot_maps_used < req.spot_shadow_maps) {
@@ -715,7 +745,8 @@ struct Renderer::Impl {
         sl.range = s.range;
         shadow::SpotShadowConfig cfg;
         cfg.resolution = s.resolution;
-        cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+        cfg.depth =
+            reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
         spot_shadows.push_back(shadow::compute_spot_shadow(sl, cfg));
         spot_gpu[spot_maps_used] = shadow::pack_spot_shadow(spot_shadows.back(), origin);
         l.params.y = float(spot_maps_used++);
@@ -734,7 +765,8 @@ struct Renderer::Impl {
         pl.range = p.range;
         shadow::PointShadowConfig cfg;
         cfg.resolution = p.resolution;
-        cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+        cfg.depth =
+            reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
         point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
         point_gpu[point_maps_used] = shadow::pack_point_shadow(point_shadows.back(), origin);
         l.params.y = float(point_maps_used++);
@@ -752,14 +784,16 @@ struct Renderer::Impl {
       cfg.max_distance = sh.max_distance;
       cfg.resolution = sh.resolution;
       cfg.fit = static_cast<shadow::CascadeFit>(static_cast<uint32_t>(sh.fit));
-      cfg.depth = reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+      cfg.depth =
+          reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
       cfg.depth_clamp = ctx.info().depth_clamp;
       cfg.blend_fraction = sh.blend_band;
       cfg.fade_fraction = sh.fade_band;
       shadow::DirectionalLight light;
       light.direction = to_d(scene.sun->direction);
       light.angular_diameter = glm::radians(double(scene.sun->angular_diameter_degrees));
-      cascades = shadow::compute_cascades(cfg, shadow_camera(), light, bounds(scene.world_bounds()));
+      cascades =
+          shadow::compute_cascades(cfg, shadow_camera(), light, bounds(scene.world_bounds()));
       const auto gpu_shadow = shadow::pack_shadow(cascades, origin);
       shadow_ubo.write(std::as_bytes(std::span(&gpu_shadow, 1)));
     }
@@ -830,9 +864,11 @@ struct Renderer::Impl {
       for (uint32_t c = 0; c < req.cascades; ++c) {
         begin_depth_only(cmd, sun_map.layer_view(c), res);
         set_caster_bias(cmd);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout->handle(), 0, 1, &shadow_set, 0, nullptr);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout->handle(), 0, 1,
+                                &shadow_set, 0, nullptr);
         draw_meshes(cmd, *shadow_layout, shadow_opaque->handle(),
-                    shadow_masked ? shadow_masked->handle() : VK_NULL_HANDLE, true, glm::uvec4(c, 0, 0, 0));
+                    shadow_masked ? shadow_masked->handle() : VK_NULL_HANDLE, true,
+                    glm::uvec4(c, 0, 0, 0));
         vkCmdEndRendering(cmd);
       }
       sun_map.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
@@ -844,9 +880,11 @@ struct Renderer::Impl {
       for (uint32_t i = 0; i < uint32_t(spot_shadows.size()); ++i) {
         begin_depth_only(cmd, arr.layer_view(i), arr.desc().width);
         set_caster_bias(cmd);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, spot_layout->handle(), 0, 1, &spot_set, 0, nullptr);
-        draw_meshes(cmd, *spot_layout, spot_opaque->handle(), spot_masked ? spot_masked->handle() : VK_NULL_HANDLE,
-                    true, glm::uvec4(i, 0, 0, 0));
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, spot_layout->handle(), 0, 1,
+                                &spot_set, 0, nullptr);
+        draw_meshes(cmd, *spot_layout, spot_opaque->handle(),
+                    spot_masked ? spot_masked->handle() : VK_NULL_HANDLE, true,
+                    glm::uvec4(i, 0, 0, 0));
         vkCmdEndRendering(cmd);
       }
       arr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
@@ -858,8 +896,10 @@ struct Renderer::Impl {
       for (uint32_t i = 0; i < uint32_t(point_shadows.size()); ++i) {
         for (uint32_t f = 0; f < 6; ++f) {
           begin_depth_only(cmd, cubes.layer_view(6 * i + f), cubes.desc().width);
-          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_layout->handle(), 0, 1, &point_set, 0, nullptr);
-          draw_meshes(cmd, *point_layout, point_pipe->handle(), VK_NULL_HANDLE, true, glm::uvec4(f, i, 0, 0));
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_layout->handle(), 0,
+                                  1, &point_set, 0, nullptr);
+          draw_meshes(cmd, *point_layout, point_pipe->handle(), VK_NULL_HANDLE, true,
+                      glm::uvec4(f, i, 0, 0));
           // Masked casters use the same pipeline: its fragment stage alpha-tests.
           draw_masked_with(cmd, *point_layout, point_pipe->handle(), glm::uvec4(f, i, 0, 0));
           vkCmdEndRendering(cmd);
@@ -893,7 +933,8 @@ struct Renderer::Impl {
       ri.pDepthAttachment = &da;
       vkCmdBeginRendering(cmd, &ri);
       viewport(cmd, width, height);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, geo_layout->handle(), 0, 1, &geo_set, 0, nullptr);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, geo_layout->handle(), 0, 1,
+                              &geo_set, 0, nullptr);
       draw_meshes(cmd, *geo_layout, prepass_opaque->handle(),
                   prepass_masked ? prepass_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
       vkCmdEndRendering(cmd);
@@ -905,7 +946,8 @@ struct Renderer::Impl {
     if (req.sun_shadows) {
       info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve->handle());
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_layout->handle(), 0, 1, &resolve_set, 0, nullptr);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, resolve_layout->handle(), 0, 1,
+                              &resolve_set, 0, nullptr);
       vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
       info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
       mark("shadow-resolve");
@@ -924,7 +966,8 @@ struct Renderer::Impl {
       ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
       ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
       ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      const glm::vec3 sky = scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
+      const glm::vec3 sky =
+          scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
       ca.clearValue.color = {{sky.r, sky.g, sky.b, 1.0f}};
       VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
       da.imageView = depth.view();
@@ -939,7 +982,8 @@ struct Renderer::Impl {
       ri.pDepthAttachment = &da;
       vkCmdBeginRendering(cmd, &ri);
       viewport(cmd, width, height);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1, &forward_set, 0, nullptr);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1,
+                              &forward_set, 0, nullptr);
       draw_meshes(cmd, *forward_layout, forward_opaque->handle(),
                   forward_masked ? forward_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
       vkCmdEndRendering(cmd);
@@ -949,7 +993,8 @@ struct Renderer::Impl {
 
     ldr.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tonemap->handle());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tonemap_layout->handle(), 0, 1, &tonemap_set, 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, tonemap_layout->handle(), 0, 1,
+                            &tonemap_set, 0, nullptr);
     vkCmdDispatch(cmd, (width + 7) / 8, (height + 7) / 8, 1);
     mark("tonemap");
 
@@ -957,12 +1002,14 @@ struct Renderer::Impl {
     VkBufferImageCopy region{};
     region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
     region.imageExtent = {width, height, 1};
-    vkCmdCopyImageToBuffer(cmd, ldr.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, readback.handle(), 1, &region);
+    vkCmdCopyImageToBuffer(cmd, ldr.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                           readback.handle(), 1, &region);
     gpu::full_barrier(cmd);
     pass_names = names;
   }
 
-  void draw_masked_with(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline p, glm::uvec4 index) {
+  void draw_masked_with(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline p,
+                        glm::uvec4 index) {
     // draw_meshes skips masked draws when no masked pipeline is given; the point pipeline
     // handles both, so draw the masked ones with it too.
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
@@ -1026,7 +1073,9 @@ Renderer::~Renderer() {
   if (impl_) vkDeviceWaitIdle(impl_->ctx.device());
 }
 
-void Renderer::render(uint32_t frame_index) { impl_->render(frame_index); }
+void Renderer::render(uint32_t frame_index) {
+  impl_->render(frame_index);
+}
 
 std::vector<uint8_t> Renderer::read_rgba8() {
   std::vector<uint8_t> px(size_t{impl_->width} * impl_->height * 4);
@@ -1052,11 +1101,23 @@ std::vector<float> Renderer::read_sun_shadow_map(uint32_t cascade) {
   return out;
 }
 
-uint32_t Renderer::width() const { return impl_->width; }
-uint32_t Renderer::height() const { return impl_->height; }
-const BuildReport& Renderer::built() const { return impl_->report; }
-const std::vector<PassTiming>& Renderer::timings() const { return impl_->timings; }
-void Renderer::set_debug_view(scene::DebugView view) { impl_->scene.render.view = view; }
-scene::Scene& Renderer::scene() { return impl_->scene; }
+uint32_t Renderer::width() const {
+  return impl_->width;
+}
+uint32_t Renderer::height() const {
+  return impl_->height;
+}
+const BuildReport& Renderer::built() const {
+  return impl_->report;
+}
+const std::vector<PassTiming>& Renderer::timings() const {
+  return impl_->timings;
+}
+void Renderer::set_debug_view(scene::DebugView view) {
+  impl_->scene.render.view = view;
+}
+scene::Scene& Renderer::scene() {
+  return impl_->scene;
+}
 
 }  // namespace penumbra::render

@@ -3,6 +3,10 @@
 // GLSL blocks.
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <fstream>
 #include <penumbra/core/error.hpp>
 #include <penumbra/render/frame_types.hpp>
 #include <penumbra/render/renderer.hpp>
@@ -11,15 +15,11 @@
 #include <penumbra/shader/reflection.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 
-#include <cmath>
-#include <cstdio>
-#include <fstream>
-
 namespace penumbra {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::GpuTest;
+using ::testing::HasSubstr;
 
 constexpr uint32_t kWidth = 320, kHeight = 180;
 
@@ -171,7 +171,8 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
 
 TEST_F(FrameTest, FrameStructsMatchReflection) {
   shader::Compiler compiler(shader::CompileOptions{{PENUMBRA_SHADER_DIR}, {}, false});
-  const auto spirv = compiler.compile_source(R"(#version 460
+  const auto spirv = compiler
+                         .compile_source(R"(#version 460
 #include "penumbra/frame_types.glsl"
 layout(local_size_x = 1) in;
 layout(std140, binding = 0) uniform FrameBlock { FrameGpu frame; };
@@ -179,7 +180,7 @@ layout(std430, binding = 1) buffer Out { float x; };
 layout(push_constant) uniform Push { DrawPush draw; };
 void main() { x = frame.viewport.x + draw.albedo.x; }
 )",
-                                             "frame_layout.comp", shader::Stage::compute)
+                                         "frame_layout.comp", shader::Stage::compute)
                          .spirv;
   const auto refl = shader::reflect(spirv);
   const auto* ubo = refl.find_binding("FrameBlock");
@@ -221,11 +222,16 @@ void main() { x = frame.viewport.x + draw.albedo.x; }
   EXPECT_EQ(d->size, sizeof(render::DrawPush));
   for (const auto& m : d->members) {
     size_t want = 0;
-    if (m.name == "model") want = offsetof(render::DrawPush, model);
-    else if (m.name == "albedo") want = offsetof(render::DrawPush, albedo);
-    else if (m.name == "mask") want = offsetof(render::DrawPush, mask);
-    else if (m.name == "index") want = offsetof(render::DrawPush, index);
-    else ADD_FAILURE() << "DrawPush member " << m.name << " has no C++ counterpart";
+    if (m.name == "model")
+      want = offsetof(render::DrawPush, model);
+    else if (m.name == "albedo")
+      want = offsetof(render::DrawPush, albedo);
+    else if (m.name == "mask")
+      want = offsetof(render::DrawPush, mask);
+    else if (m.name == "index")
+      want = offsetof(render::DrawPush, index);
+    else
+      ADD_FAILURE() << "DrawPush member " << m.name << " has no C++ counterpart";
     EXPECT_EQ(m.offset, want) << m.name;
   }
 }

@@ -3,23 +3,23 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/testing/gpu_test.hpp>
-
-#include <algorithm>
-#include <array>
-#include <cmath>
 #include <random>
 
 namespace penumbra {
 namespace {
 
-using ::testing::HasSubstr;
 using testing::GpuTest;
+using ::testing::HasSubstr;
 
 shader::Compiler& compiler() {
   static shader::Compiler c;
@@ -119,7 +119,8 @@ void main() {
   });
   const auto y = out.read_vector<float>(n + 64);
   for (uint32_t i = 0; i < n; ++i) ASSERT_EQ(y[i], x[i] * 3.0f + static_cast<float>(i)) << i;
-  for (uint32_t i = n; i < n + 64; ++i) ASSERT_EQ(y[i], -12345.0f) << "bounds check broken at " << i;
+  for (uint32_t i = n; i < n + 64; ++i)
+    ASSERT_EQ(y[i], -12345.0f) << "bounds check broken at " << i;
 }
 
 TEST_F(GpuTest, SpecializationConstantsReachTheShader) {
@@ -152,8 +153,9 @@ TEST_F(GpuTest, DepthUploadRoundTripsForEveryKind) {
     gpu::ImageKind kind;
     uint32_t size, layers;
   };
-  for (const Case c : {Case{gpu::ImageKind::image_2d, 17, 1},
-                       Case{gpu::ImageKind::image_2d_array, 8, 4}, Case{gpu::ImageKind::cube, 8, 6}}) {
+  for (const Case c :
+       {Case{gpu::ImageKind::image_2d, 17, 1}, Case{gpu::ImageKind::image_2d_array, 8, 4},
+        Case{gpu::ImageKind::cube, 8, 6}}) {
     gpu::ImageDesc d;
     d.kind = c.kind;
     d.format = VK_FORMAT_D32_SFLOAT;
@@ -213,8 +215,8 @@ bool compare(VkCompareOp op, float ref, float texel) {
   }
 }
 
-double reference_compare(const std::vector<float>& depth, int w, int h, int layer, float u,
-                         float v, float ref, VkCompareOp op, bool linear) {
+double reference_compare(const std::vector<float>& depth, int w, int h, int layer, float u, float v,
+                         float ref, VkCompareOp op, bool linear) {
   auto texel = [&](int x, int y) {
     x = std::clamp(x, 0, w - 1);
     y = std::clamp(y, 0, h - 1);
@@ -242,8 +244,9 @@ void main() {
   uint i = gl_GlobalInvocationID.x;
   if (i >= pc.count) return;
   vec4 q = in_.c[i];
-)" + (arrayed ? "  out_.r[i] = texture(map, vec4(q.xy, q.z, q.w));\n}\n"
-              : "  out_.r[i] = texture(map, vec3(q.xy, q.w));\n}\n");
+)" +
+                          (arrayed ? "  out_.r[i] = texture(map, vec4(q.xy, q.z, q.w));\n}\n"
+                                   : "  out_.r[i] = texture(map, vec3(q.xy, q.w));\n}\n");
   const auto spirv = compute_spirv(src);
   gpu::PipelineLayout layout(c,
                              {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER},
@@ -283,7 +286,8 @@ TEST_F(GpuTest, CompareSamplerMatchesCompareThenFilterReference) {
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   std::vector<float> depth(size_t{w} * h * layers);
   for (auto& d : depth) d = unit(rng);
-  const double bound = 2.0 * std::ldexp(1.0, -int(ctx().info().limits.subTexelPrecisionBits)) + 1e-5;
+  const double bound =
+      2.0 * std::ldexp(1.0, -int(ctx().info().limits.subTexelPrecisionBits)) + 1e-5;
 
   for (bool arrayed : {false, true}) {
     gpu::ImageDesc d;

@@ -4,12 +4,12 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
+
+#include <cmath>
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/shader_function.hpp>
-
-#include <cmath>
 #include <random>
 
 struct Light {
@@ -153,7 +153,7 @@ TEST_F(HarnessTest, ArraysOfScalarsVectorsAndStructs) {
   EXPECT_EQ(sv.engine().input_stride(), 48u);  // vec3[3]: stride 16
   ShaderFunction<float(std::array<Light, 3>)> ti(kFuncs, "total_intensity");
   EXPECT_EQ(ti(std::array<Light, 3>{Light{glm::vec3(1), 1.0f}, Light{glm::vec3(2), 2.5f},
-                                     Light{glm::vec3(3), 4.0f}}),
+                                    Light{glm::vec3(3), 4.0f}}),
             7.5f);
 }
 
@@ -243,8 +243,8 @@ TEST_F(HarnessTest, WrongAnswerFailsWithFullReport) {
   EXPECT_EQ(result.failing_cases, 10u);
   EXPECT_THAT(result.report, HasSubstr("case 3"));
   EXPECT_THAT(result.report, HasSubstr("(3, 2, 0.5)"));
-  EXPECT_THAT(result.report, HasSubstr("0x1.1p+2"));   // expected 4.25 in hex-float
-  EXPECT_THAT(result.report, HasSubstr("0x1p+2"));     // actual 4
+  EXPECT_THAT(result.report, HasSubstr("0x1.1p+2"));  // expected 4.25 in hex-float
+  EXPECT_THAT(result.report, HasSubstr("0x1p+2"));    // actual 4
   EXPECT_THAT(result.report, HasSubstr("ULP"));
   EXPECT_NONFATAL_FAILURE(PENUMBRA_EXPECT_ALL_NEAR(wrong, got, Tolerance::ulps(2)), "case 48");
 }

@@ -1,13 +1,13 @@
 // The complete example of docs/testing-shaders.md. It is built and run with every test run, so
 // the tutorial cannot drift from the harness.
 #include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/property.hpp>
 #include <penumbra/testing/shader_function.hpp>
-
-#include <algorithm>
-#include <cmath>
 
 // 1. Describe a GLSL struct once: C++ type, GLSL name, fields in GLSL declaration order.
 struct SpotLight {

@@ -1,10 +1,10 @@
 #pragma once
 
-#include <penumbra/gpu/context.hpp>
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
 #include <functional>
+#include <penumbra/gpu/context.hpp>
 #include <vector>
 
 namespace penumbra::gpu {
@@ -23,8 +23,8 @@ class CommandRecorder {
   CommandRecorder(const CommandRecorder&) = delete;
   CommandRecorder& operator=(const CommandRecorder&) = delete;
 
-  VkCommandBuffer begin();       // resets and begins
-  void submit_and_wait();        // ends, submits, waits on the fence
+  VkCommandBuffer begin();  // resets and begins
+  void submit_and_wait();   // ends, submits, waits on the fence
   VkCommandBuffer handle() const { return cmd_; }
 
  private:

@@ -1,11 +1,11 @@
 #pragma once
 
-#include <penumbra/gpu/validation.hpp>
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <penumbra/gpu/validation.hpp>
 #include <string>
 
 namespace penumbra::gpu {

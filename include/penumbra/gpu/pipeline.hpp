@@ -1,11 +1,11 @@
 #pragma once
 
-#include <penumbra/gpu/context.hpp>
 #include <vulkan/vulkan.h>
 
 #include <cstdint>
 #include <cstring>
 #include <optional>
+#include <penumbra/gpu/context.hpp>
 #include <span>
 #include <vector>
 
@@ -120,8 +120,8 @@ struct GraphicsPipelineDesc {
   bool depth_test = true;
   bool depth_write = true;
   VkCompareOp depth_compare = VK_COMPARE_OP_GREATER_OR_EQUAL;  // reverse-Z
-  bool depth_bias = false;   // vkCmdSetDepthBias at record time
-  bool depth_clamp = false;  // needs the depthClamp feature
+  bool depth_bias = false;                                     // vkCmdSetDepthBias at record time
+  bool depth_clamp = false;                                    // needs the depthClamp feature
   VkCullModeFlags cull = VK_CULL_MODE_BACK_BIT;
   VkFrontFace front_face = VK_FRONT_FACE_COUNTER_CLOCKWISE;
   VkPrimitiveTopology topology = VK_PRIMITIVE_TOPOLOGY_TRIANGLE_LIST;

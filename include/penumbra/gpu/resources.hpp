@@ -1,10 +1,10 @@
 #pragma once
 
-#include <penumbra/gpu/context.hpp>
 #include <vulkan/vulkan.h>
 
 #include <cstddef>
 #include <cstdint>
+#include <penumbra/gpu/context.hpp>
 #include <span>
 #include <vector>
 
@@ -19,7 +19,8 @@ enum class MemoryUse {
 class Buffer {
  public:
   Buffer() = default;
-  Buffer(Context& ctx, VkDeviceSize size, VkBufferUsageFlags usage, MemoryUse use = MemoryUse::host);
+  Buffer(Context& ctx, VkDeviceSize size, VkBufferUsageFlags usage,
+         MemoryUse use = MemoryUse::host);
   ~Buffer();
   Buffer(Buffer&& other) noexcept;
   Buffer& operator=(Buffer&& other) noexcept;
@@ -68,7 +69,7 @@ struct ImageDesc {
 
 bool is_depth_format(VkFormat format);
 bool has_stencil(VkFormat format);
-uint32_t format_texel_size(VkFormat format);  // bytes per texel of the main aspect
+uint32_t format_texel_size(VkFormat format);    // bytes per texel of the main aspect
 VkImageAspectFlags aspect_of(VkFormat format);  // depth aspect for depth formats, else color
 
 // A VkImage with its own allocation and a default view matching its kind (2D, 2D array, cube).

@@ -5,10 +5,9 @@
 // Only mat4 / vec4 / uvec4 members, so std140 and std430 agree with the C++ layout.
 // Positions are relative to the render origin (the camera), like the shadow structs.
 
-#include <glm/glm.hpp>
-
 #include <cstddef>
 #include <cstdint>
+#include <glm/glm.hpp>
 
 namespace penumbra::render {
 
@@ -16,18 +15,18 @@ inline constexpr uint32_t kMaxSpotLights = 2;
 inline constexpr uint32_t kMaxPointLights = 2;
 
 struct alignas(16) LightGpu {
-  glm::vec4 position_range;    // xyz relative to the render origin; w: range (m)
-  glm::vec4 direction_cos;     // spot: xyz axis (unit), w: cos(outer); point: 0
-  glm::vec4 color_intensity;   // rgb, w: intensity
-  glm::vec4 params;            // x: cos(inner) (spot), y: shadow map index or -1, z, w: 0
+  glm::vec4 position_range;   // xyz relative to the render origin; w: range (m)
+  glm::vec4 direction_cos;    // spot: xyz axis (unit), w: cos(outer); point: 0
+  glm::vec4 color_intensity;  // rgb, w: intensity
+  glm::vec4 params;           // x: cos(inner) (spot), y: shadow map index or -1, z, w: 0
 };
 static_assert(sizeof(LightGpu) == 64);
 
 struct alignas(16) FrameGpu {
-  glm::mat4 view;           // (world - origin) -> view
-  glm::mat4 proj;           // view -> clip (reverse-Z when counts.y == 1)
+  glm::mat4 view;  // (world - origin) -> view
+  glm::mat4 proj;  // view -> clip (reverse-Z when counts.y == 1)
   glm::mat4 view_proj;
-  glm::mat4 inv_view_proj;  // clip -> (world - origin)
+  glm::mat4 inv_view_proj;    // clip -> (world - origin)
   glm::vec4 camera_position;  // relative to the origin (0 for a camera-centred origin), w = 1
   glm::vec4 camera_forward;   // unit, w = 0
   glm::vec4 sun_direction;    // xyz unit *towards* the sun, w: intensity (0: no sun)
@@ -36,7 +35,7 @@ struct alignas(16) FrameGpu {
   glm::vec4 viewport;         // width, height, 1 / width, 1 / height
   glm::vec4 projection;       // near, far, tan(fov_y / 2), aspect
   glm::vec4 bias;             // normal offset (texels), slope scale, constant bias, max bias
-  glm::vec4 filter_params;           // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
+  glm::vec4 filter_params;    // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
   // x: frame index; y: depth convention (1 reverse-Z); z: filter (0 hard, 1 pcf, 2 pcss,
   // 3 poisson); w: debug view (0 lit, 1 shadow factor, 2 cascades, 3 contact mask, 4 texel
   // density, 5 penumbra)

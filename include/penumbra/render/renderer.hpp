@@ -5,13 +5,12 @@
 // tonemap + debug views. Passes, pipelines, images and shader variants are created only for
 // what the scene declares; created() lists them.
 
-#include <penumbra/gpu/context.hpp>
-#include <penumbra/render/frame_types.hpp>
-#include <penumbra/scene/scene.hpp>
-
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/frame_types.hpp>
+#include <penumbra/scene/scene.hpp>
 #include <string>
 #include <vector>
 
