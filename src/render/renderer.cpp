@@ -828,25 +828,58 @@ struct Renderer::Impl {
     vkCmdSetScissor(cmd, 0, 1, &sc);
   }
 
-  void begin_depth_only(VkCommandBuffer cmd, VkImageView view, uint32_t res) {
-    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    da.imageView = view;
-    da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-    da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    da.clearValue.depthStencil = {reverse_z ? 0.0f : 1.0f, 0};
-    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-    ri.renderArea = {{0, 0}, {res, res}};
-    ri.layerCount = 1;
-    ri.pDepthAttachment = &da;
-    vkCmdBeginRendering(cmd, &ri);
-    viewport(cmd, res, res);
-  }
-
   // Caster-side depth bias pushes caster depth away from the light: negative under reverse-Z.
   void set_caster_bias(VkCommandBuffer cmd) {
     const float sign = reverse_z ? -1.0f : 1.0f;
     vkCmdSetDepthBias(cmd, 0.0f, 0.0f, sign * 1.0f);
+  }
+
+  // Renders every caster into `layers` layers of a depth array (cascades, spot maps, cube
+  // faces), leaving it ready for sampling.
+  template <class IndexFn>
+  void render_shadow_layers(VkCommandBuffer cmd, gpu::Image& target, uint32_t layers,
+                            const gpu::PipelineLayout& layout, VkDescriptorSet set,
+                            const gpu::GraphicsPipeline* opaque,
+                            const gpu::GraphicsPipeline* masked, bool caster_bias, IndexFn index) {
+    target.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
+    for (uint32_t l = 0; l < layers; ++l) {
+      begin_rendering(cmd, target.desc().width, target.desc().width, VK_NULL_HANDLE, {},
+                      target.layer_view(l), VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
+      if (caster_bias) set_caster_bias(cmd);
+      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 0, 1, &set, 0,
+                              nullptr);
+      draw_meshes(cmd, layout, opaque->handle(), masked ? masked->handle() : VK_NULL_HANDLE, true,
+                  index(l));
+      vkCmdEndRendering(cmd);
+    }
+    target.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  }
+
+  // Begins dynamic rendering into an optional colour target (cleared to `clear`) and a depth
+  // target (cleared to far, or loaded), with a full-size viewport and scissor.
+  void begin_rendering(VkCommandBuffer cmd, uint32_t w, uint32_t h, VkImageView color,
+                       VkClearColorValue clear, VkImageView depth_view, VkImageLayout depth_layout,
+                       bool clear_depth) {
+    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    ca.imageView = color;
+    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    ca.clearValue.color = clear;
+    VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+    da.imageView = depth_view;
+    da.imageLayout = depth_layout;
+    da.loadOp = clear_depth ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+    da.storeOp = clear_depth ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_NONE;
+    da.clearValue.depthStencil = {reverse_z ? 0.0f : 1.0f, 0};
+    VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+    ri.renderArea = {{0, 0}, {w, h}};
+    ri.layerCount = 1;
+    ri.colorAttachmentCount = color != VK_NULL_HANDLE ? 1 : 0;
+    ri.pColorAttachments = color != VK_NULL_HANDLE ? &ca : nullptr;
+    ri.pDepthAttachment = &da;
+    vkCmdBeginRendering(cmd, &ri);
+    viewport(cmd, w, h);
   }
 
   void record(VkCommandBuffer cmd) {
@@ -859,86 +892,36 @@ struct Renderer::Impl {
     };
     mark("");
     if (req.sun_shadows) {
-      sun_map.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-      const uint32_t res = scene.shadows.resolution;
-      for (uint32_t c = 0; c < req.cascades; ++c) {
-        begin_depth_only(cmd, sun_map.layer_view(c), res);
-        set_caster_bias(cmd);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, shadow_layout->handle(), 0, 1,
-                                &shadow_set, 0, nullptr);
-        draw_meshes(cmd, *shadow_layout, shadow_opaque->handle(),
-                    shadow_masked ? shadow_masked->handle() : VK_NULL_HANDLE, true,
-                    glm::uvec4(c, 0, 0, 0));
-        vkCmdEndRendering(cmd);
-      }
-      sun_map.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      render_shadow_layers(cmd, sun_map, req.cascades, *shadow_layout, shadow_set,
+                           shadow_opaque.get(), shadow_masked.get(), true,
+                           [](uint32_t c) { return glm::uvec4(c, 0, 0, 0); });
       mark("sun-shadow");
     }
     if (req.spot_shadow_maps) {
-      auto& arr = spot_maps[0];
-      arr.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-      for (uint32_t i = 0; i < uint32_t(spot_shadows.size()); ++i) {
-        begin_depth_only(cmd, arr.layer_view(i), arr.desc().width);
-        set_caster_bias(cmd);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, spot_layout->handle(), 0, 1,
-                                &spot_set, 0, nullptr);
-        draw_meshes(cmd, *spot_layout, spot_opaque->handle(),
-                    spot_masked ? spot_masked->handle() : VK_NULL_HANDLE, true,
-                    glm::uvec4(i, 0, 0, 0));
-        vkCmdEndRendering(cmd);
-      }
-      arr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      render_shadow_layers(cmd, spot_maps[0], uint32_t(spot_shadows.size()), *spot_layout, spot_set,
+                           spot_opaque.get(), spot_masked.get(), true,
+                           [](uint32_t i) { return glm::uvec4(i, 0, 0, 0); });
       mark("spot-shadow");
     }
     if (req.point_shadow_cubes) {
-      auto& cubes = point_maps[0];
-      cubes.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-      for (uint32_t i = 0; i < uint32_t(point_shadows.size()); ++i) {
-        for (uint32_t f = 0; f < 6; ++f) {
-          begin_depth_only(cmd, cubes.layer_view(6 * i + f), cubes.desc().width);
-          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, point_layout->handle(), 0,
-                                  1, &point_set, 0, nullptr);
-          draw_meshes(cmd, *point_layout, point_pipe->handle(), VK_NULL_HANDLE, true,
-                      glm::uvec4(f, i, 0, 0));
-          // Masked casters use the same pipeline: its fragment stage alpha-tests.
-          draw_masked_with(cmd, *point_layout, point_pipe->handle(), glm::uvec4(f, i, 0, 0));
-          vkCmdEndRendering(cmd);
-        }
-      }
-      cubes.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+      // Layer 6·i + f is face f of light i. One pipeline draws opaque and masked casters: its
+      // fragment stage writes the linear distance and alpha-tests.
+      render_shadow_layers(cmd, point_maps[0], 6 * uint32_t(point_shadows.size()), *point_layout,
+                           point_set, point_pipe.get(), point_pipe.get(), false,
+                           [](uint32_t l) { return glm::uvec4(l % 6, l / 6, 0, 0); });
       mark("point-shadow");
     }
 
     // Prepass.
     depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
     normal.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-    {
-      VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      ca.imageView = normal.view();
-      ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      ca.clearValue.color = {{0, 0, 0, 0}};
-      VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      da.imageView = depth.view();
-      da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
-      da.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      da.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      da.clearValue.depthStencil = {reverse_z ? 0.0f : 1.0f, 0};
-      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-      ri.renderArea = {{0, 0}, {width, height}};
-      ri.layerCount = 1;
-      ri.colorAttachmentCount = 1;
-      ri.pColorAttachments = &ca;
-      ri.pDepthAttachment = &da;
-      vkCmdBeginRendering(cmd, &ri);
-      viewport(cmd, width, height);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, geo_layout->handle(), 0, 1,
-                              &geo_set, 0, nullptr);
-      draw_meshes(cmd, *geo_layout, prepass_opaque->handle(),
-                  prepass_masked ? prepass_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
-      vkCmdEndRendering(cmd);
-    }
+    begin_rendering(cmd, width, height, normal.view(), {{0, 0, 0, 0}}, depth.view(),
+                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, geo_layout->handle(), 0, 1,
+                            &geo_set, 0, nullptr);
+    draw_meshes(cmd, *geo_layout, prepass_opaque->handle(),
+                prepass_masked ? prepass_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
+    vkCmdEndRendering(cmd);
     depth.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     normal.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     mark("prepass");
@@ -960,34 +943,15 @@ struct Renderer::Impl {
     // Forward.
     depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
     hdr.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-    {
-      VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      ca.imageView = hdr.view();
-      ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-      ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-      ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-      const glm::vec3 sky =
-          scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
-      ca.clearValue.color = {{sky.r, sky.g, sky.b, 1.0f}};
-      VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-      da.imageView = depth.view();
-      da.imageLayout = VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
-      da.loadOp = VK_ATTACHMENT_LOAD_OP_LOAD;
-      da.storeOp = VK_ATTACHMENT_STORE_OP_NONE;
-      VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
-      ri.renderArea = {{0, 0}, {width, height}};
-      ri.layerCount = 1;
-      ri.colorAttachmentCount = 1;
-      ri.pColorAttachments = &ca;
-      ri.pDepthAttachment = &da;
-      vkCmdBeginRendering(cmd, &ri);
-      viewport(cmd, width, height);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1,
-                              &forward_set, 0, nullptr);
-      draw_meshes(cmd, *forward_layout, forward_opaque->handle(),
-                  forward_masked ? forward_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
-      vkCmdEndRendering(cmd);
-    }
+    const glm::vec3 sky =
+        scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
+    begin_rendering(cmd, width, height, hdr.view(), {{sky.r, sky.g, sky.b, 1.0f}}, depth.view(),
+                    VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1,
+                            &forward_set, 0, nullptr);
+    draw_meshes(cmd, *forward_layout, forward_opaque->handle(),
+                forward_masked ? forward_masked->handle() : VK_NULL_HANDLE, false, glm::uvec4(0));
+    vkCmdEndRendering(cmd);
     hdr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
     mark("forward");
 
@@ -1006,26 +970,6 @@ struct Renderer::Impl {
                            readback.handle(), 1, &region);
     gpu::full_barrier(cmd);
     pass_names = names;
-  }
-
-  void draw_masked_with(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline p,
-                        glm::uvec4 index) {
-    // draw_meshes skips masked draws when no masked pipeline is given; the point pipeline
-    // handles both, so draw the masked ones with it too.
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
-    for (const auto& d : draws) {
-      if (!d.masked || !d.casts) continue;
-      const GpuMesh& m = meshes[d.mesh];
-      if (m.index_count == 0) continue;
-      DrawPush push = d.push;
-      push.index = index;
-      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
-      VkDeviceSize offset = 0;
-      VkBuffer vb = m.vertices.handle();
-      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
-      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
-      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
-    }
   }
 
   std::vector<std::string> pass_names;
