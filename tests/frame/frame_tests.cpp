@@ -93,9 +93,9 @@ TEST_F(FrameTest, DefaultSceneShadowedFractionInRange) {
   const double self_fraction = double(self) / double(geometry);
   std::printf("default scene: %.2f%% of sun-facing pixels in cast shadow, %.2f%% self-shadowed\n",
               100 * cast_fraction, 100 * self_fraction);
-  // Measured at 320x180: 1.26% cast, 1.56% self (lavapipe and H100 alike). The objects are small in the frame
-  // (the 40 m ground fills most of it). Below 0.3% the cast shadows are gone (a lost shadow
-  // map, a wrong compare direction or fade); above 5% the ground shows acne or the maps are
+  // Measured at 320x180: 1.26% cast, 1.56% self (lavapipe and H100 alike). The objects are small in
+  // the frame (the 40 m ground fills most of it). Below 0.3% the cast shadows are gone (a lost
+  // shadow map, a wrong compare direction or fade); above 5% the ground shows acne or the maps are
   // shifted. Self-shadowing depends only on normals and the sun direction.
   EXPECT_GT(cast_fraction, 0.003);
   EXPECT_LT(cast_fraction, 0.05);
