@@ -1,20 +1,27 @@
 // penumbra-view: the Penumbra runtime. Headless, it renders a scene's frames offscreen, writes
 // PNGs (the lit image and every debug view) and a timings file, and prints what was built and
-// the per-pass GPU timings (timestamp queries, medians over the frames).
-#include <penumbra/core/error.hpp>
-#include <penumbra/gpu/context.hpp>
-#include <penumbra/render/renderer.hpp>
-#include <penumbra/scene/scene.hpp>
-
+// the per-pass GPU timings (timestamp queries, medians over the frames). With --watch it then
+// keeps running: shader edits are hot-reloaded (runtime/session.hpp) and the PNG rewritten;
+// --script / --command drive it headless (runtime/script.hpp).
 #include <algorithm>
+#include <atomic>
 #include <chrono>
+#include <csignal>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <iostream>
 #include <map>
+#include <penumbra/core/error.hpp>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
 #include <string>
 #include <vector>
+
+#include "script.hpp"
+#include "session.hpp"
 
 namespace {
 
@@ -30,24 +37,30 @@ struct Options {
   std::string filter;
   uint32_t width = 0, height = 0;
   bool list_devices = false;
+  fs::path shader_dir;  // empty: the repo's shaders/
+  bool watch = false;
+  uint32_t debounce_ms = 50;
+  // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
+  std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
 };
 
 const std::map<std::string, penumbra::scene::DebugView>& views() {
   using penumbra::scene::DebugView;
-  static const std::map<std::string, DebugView> v = {
-      {"lit", DebugView::lit},
-      {"shadow_factor", DebugView::shadow_factor},
-      {"cascades", DebugView::cascades},
-      {"contact_mask", DebugView::contact_mask},
-      {"texel_density", DebugView::texel_density},
-      {"penumbra", DebugView::penumbra}};
+  static const std::map<std::string, DebugView> v = {{"lit", DebugView::lit},
+                                                     {"shadow_factor", DebugView::shadow_factor},
+                                                     {"cascades", DebugView::cascades},
+                                                     {"contact_mask", DebugView::contact_mask},
+                                                     {"texel_density", DebugView::texel_density},
+                                                     {"penumbra", DebugView::penumbra}};
   return v;
 }
 
 const std::map<std::string, penumbra::scene::Filter>& filters() {
   using penumbra::scene::Filter;
-  static const std::map<std::string, Filter> f = {
-      {"hard", Filter::hard}, {"pcf", Filter::pcf}, {"pcss", Filter::pcss}, {"poisson", Filter::poisson}};
+  static const std::map<std::string, Filter> f = {{"hard", Filter::hard},
+                                                  {"pcf", Filter::pcf},
+                                                  {"pcss", Filter::pcss},
+                                                  {"poisson", Filter::poisson}};
   return f;
 }
 
@@ -73,11 +86,23 @@ void usage() {
   std::printf(
       "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
-      "  --scene     a shipped scene (default, grazing, space, indoor) or a .toml file\n"
-      "  --headless  render offscreen and write PNGs (the default when there is no display)\n"
-      "  --out       where PNGs and timings go (default out/<scene>)\n"
-      "  --view      %s (default: lit, then every debug view)\n"
-      "  --filter    %s (default: the scene's)\n"
+      "                     [--shader-dir DIR] [--watch] [--debounce-ms N]\n"
+      "                     [--script FILE|-] [--command LINE]...\n"
+      "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
+      "  --headless    render offscreen and write PNGs (the default when there is no display)\n"
+      "  --out         where PNGs and timings go (default out/<scene>)\n"
+      "  --view        %s (default: lit, then every debug view)\n"
+      "  --filter      %s (default: the scene's)\n"
+      "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
+      "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
+      "                view's PNG rewritten after each (Ctrl-C stops)\n"
+      "  --debounce-ms quiet time that ends a burst of file events (default 50)\n"
+      "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
+      "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
+      "                scene, size, set KEY VALUE, get, view, frame, render [N], screenshot\n"
+      "                PATH.png, timings, reload, wait_reload [MS], edit FILE [MS], replace FILE\n"
+      "                OLD NEW, expect_reload_ok, expect_reload_error TEXT, expect_rebuilt\n"
+      "                NAME..., echo, quit (docs/hot-reload.md)\n"
       "  PENUMBRA_DEVICE=lavapipe|gpu|<index>|<name>, PENUMBRA_VALIDATION=1\n",
       keys(views()).c_str(), keys(filters()).c_str());
 }
@@ -90,13 +115,18 @@ Options parse(int argc, char** argv) {
       if (i + 1 >= argc) throw Error(a + ": missing value");
       return argv[++i];
     };
-    if (a == "--scene") o.scene = value();
-    else if (a == "--headless") o.headless = true;
-    else if (a == "--frames") o.frames = parse_uint(a, value());
-    else if (a == "--out") o.out = value();
+    if (a == "--scene")
+      o.scene = value();
+    else if (a == "--headless")
+      o.headless = true;
+    else if (a == "--frames")
+      o.frames = parse_uint(a, value());
+    else if (a == "--out")
+      o.out = value();
     else if (a == "--view") {
       o.view = value();
-      if (!views().count(o.view)) throw Error("--view " + o.view + ": expected one of " + keys(views()));
+      if (!views().count(o.view))
+        throw Error("--view " + o.view + ": expected one of " + keys(views()));
     } else if (a == "--filter") {
       o.filter = value();
       if (!filters().count(o.filter))
@@ -108,11 +138,25 @@ Options parse(int argc, char** argv) {
       o.width = parse_uint(a, v.substr(0, x));
       o.height = parse_uint(a, v.substr(x + 1));
       if (o.width == 0 || o.height == 0) throw Error("--size " + v + ": both sides must be > 0");
-    } else if (a == "--list-devices") o.list_devices = true;
+    } else if (a == "--list-devices")
+      o.list_devices = true;
+    else if (a == "--shader-dir") {
+      o.shader_dir = value();
+      if (!fs::is_directory(o.shader_dir))
+        throw Error("--shader-dir " + o.shader_dir.string() + ": not a directory");
+    } else if (a == "--watch")
+      o.watch = true;
+    else if (a == "--debounce-ms")
+      o.debounce_ms = parse_uint(a, value());
+    else if (a == "--script")
+      o.scripts.emplace_back("script", value());
+    else if (a == "--command")
+      o.scripts.emplace_back("command", value());
     else if (a == "--help" || a == "-h") {
       usage();
       std::exit(0);
-    } else throw Error("unknown argument '" + a + "' (try --help)");
+    } else
+      throw Error("unknown argument '" + a + "' (try --help)");
   }
   return o;
 }
@@ -123,15 +167,78 @@ double median(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+std::atomic<bool> g_stop{false};
+extern "C" void on_signal(int) {
+  g_stop = true;
+}
+
+int validation_result(penumbra::gpu::Context& ctx) {
+  if (!ctx.validation_enabled()) return 0;
+  std::printf("validation:  %zu messages\n", ctx.validation_sink().total_seen());
+  return ctx.validation_sink().total_seen() != 0 ? 1 : 0;
+}
+
+void print_latency_summary(const penumbra::runtime::Session& s) {
+  const auto l = s.latencies_ms();
+  if (l.empty()) return;
+  std::printf(
+      "reload latency (file event -> first frame with the new pipelines): median %.0f ms "
+      "over %zu reload(s)\n",
+      penumbra::runtime::median(l), l.size());
+}
+
+penumbra::runtime::SessionOptions session_options(const Options& o, bool watch) {
+  penumbra::runtime::SessionOptions so;
+  so.shader_dir = o.shader_dir;
+  so.width = o.width;
+  so.height = o.height;
+  so.watch = watch;
+  so.debounce = std::chrono::milliseconds(o.debounce_ms);
+  return so;
+}
+
+// --script / --command: the automation mode.
+int run_scripts(penumbra::gpu::Context& ctx, const Options& o) {
+  penumbra::runtime::ScriptSetup setup;
+  setup.scene = o.scene;
+  setup.session = session_options(o, true);
+  if (!o.filter.empty()) setup.initial_settings.emplace_back("shadows.filter", o.filter);
+  if (!o.view.empty()) setup.initial_settings.emplace_back("render.view", o.view);
+  penumbra::runtime::Script script(ctx, setup);
+  int command = 0;
+  bool go_on = true;
+  for (const auto& [kind, arg] : o.scripts) {
+    if (!go_on) break;
+    if (kind == "command") {
+      go_on = script.run_line(arg, "--command " + std::to_string(++command));
+    } else if (arg == "-") {
+      go_on = script.run(std::cin, "<stdin>");
+    } else {
+      std::ifstream in(arg);
+      if (!in) throw Error("--script " + arg + ": cannot read");
+      go_on = script.run(in, arg);
+    }
+  }
+  if (script.has_session()) print_latency_summary(script.session());
+  return validation_result(ctx);
+}
+
 int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   if (o.list_devices) {
     std::printf("%s", penumbra::gpu::Context::list_devices().c_str());
     return 0;
   }
-  const bool display = std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
+  const bool display =
+      std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
   if (!o.headless && display) {
     std::printf("penumbra-view: the interactive window is not built yet; rendering headless\n");
+  }
+
+  if (!o.scripts.empty()) {
+    penumbra::gpu::Context ctx;
+    std::printf("%s", ctx.report().c_str());
+    return run_scripts(ctx, o);
   }
 
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
@@ -144,13 +251,12 @@ int run(int argc, char** argv) {
   std::printf("scene:       %s (%s)\n", scene.name.c_str(), scene_file.string().c_str());
 
   const auto t0 = std::chrono::steady_clock::now();
-  penumbra::render::RendererOptions ro;
-  ro.width = o.width;
-  ro.height = o.height;
-  penumbra::render::Renderer renderer(ctx, scene, ro);
+  penumbra::runtime::Session session(ctx, scene, session_options(o, o.watch));
+  penumbra::render::Renderer& renderer = session.renderer();
   const double build_ms =
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-  std::printf("\nbuilt for this scene (%.0f ms):\n%s", build_ms, renderer.built().to_string().c_str());
+  std::printf("\nbuilt for this scene (%.0f ms):\n%s", build_ms,
+              renderer.built().to_string().c_str());
 
   const fs::path out = o.out.empty() ? fs::path("out") / scene.name : o.out;
   fs::create_directories(out);
@@ -201,11 +307,27 @@ int run(int argc, char** argv) {
   std::printf("\nwrote:\n");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());
-  if (ctx.validation_enabled()) {
-    std::printf("validation:  %zu messages\n", ctx.validation_sink().total_seen());
-    if (ctx.validation_sink().total_seen() != 0) return 1;
+  std::fflush(stdout);
+
+  if (o.watch) {
+    // Live: the first view's PNG is rewritten after every reload that rebuilt something.
+    renderer.set_debug_view(views().at(first_view));
+    std::signal(SIGINT, on_signal);
+    std::signal(SIGTERM, on_signal);
+    std::printf("\n[watch] watching %s (%zu directories); edit a shader, Ctrl-C stops\n",
+                session.shader_dir().string().c_str(), session.watcher()->directories().size());
+    std::fflush(stdout);
+    const fs::path png = out / (first_view + ".png");
+    while (!g_stop) {
+      const auto rec = session.wait_reload(std::chrono::milliseconds(200));
+      if (!rec || rec->result.rebuilt.empty()) continue;
+      penumbra::render::write_png(png, renderer.width(), renderer.height(), session.pixels());
+      std::printf("[watch] wrote %s\n", png.string().c_str());
+      std::fflush(stdout);
+    }
+    print_latency_summary(session);
   }
-  return 0;
+  return validation_result(ctx);
 }
 
 }  // namespace

@@ -19,26 +19,25 @@
 // Latency: from the moment the watcher saw the first event of a burst to the end of the first
 // frame rendered with the rebuilt pipelines.
 
-#include "watcher.hpp"
-
-#include <penumbra/gpu/context.hpp>
-#include <penumbra/render/renderer.hpp>
-#include <penumbra/scene/scene.hpp>
-
 #include <chrono>
 #include <filesystem>
 #include <functional>
 #include <map>
 #include <memory>
 #include <optional>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
 #include <set>
 #include <string>
 #include <vector>
 
+#include "watcher.hpp"
+
 namespace penumbra::runtime {
 
 struct SessionOptions {
-  std::filesystem::path shader_dir;  // empty: the repo's shaders/ (compiled in)
+  std::filesystem::path shader_dir;     // empty: the repo's shaders/ (compiled in)
   std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
   bool watch = true;                    // false: no watcher (reload only through reload())
   std::chrono::milliseconds debounce{50};
@@ -51,8 +50,9 @@ struct ReloadRecord {
   std::vector<std::filesystem::path> changed;  // existing files passed to Renderer::reload
   std::vector<std::filesystem::path> deleted;  // gone when polled (only those a pipeline reads)
   render::ReloadResult result;
-  double reload_ms = 0.0;      // Renderer::reload (compile + pipeline creation)
-  Clock::time_point event;     // the first event of the burst, as the watcher saw it
+  double reload_ms = 0.0;   // Renderer::reload (compile + pipeline creation)
+  double waited_ms = 0.0;   // first event -> batch handed out (debounce, a frame in flight)
+  Clock::time_point event;  // the first event of the burst, as the watcher saw it
   std::optional<double> latency_ms;  // event -> end of the first frame with the new pipelines
   // Whether the batch touched a pipeline (rebuilt, failed or lost a file it reads).
   bool relevant() const {
@@ -134,7 +134,7 @@ class Session {
   std::map<std::string, std::string> errors_;
   std::set<std::filesystem::path> retry_;  // files of failed batches, passed again
   std::vector<ReloadRecord> reloads_;
-  std::optional<std::size_t> awaiting_frame_;  // index in reloads_ waiting for its first frame
+  std::vector<std::size_t> awaiting_frame_;  // indices in reloads_ waiting for their first frame
 };
 
 // The median of v (0 for an empty v).

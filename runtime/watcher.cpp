@@ -1,14 +1,14 @@
 #include "watcher.hpp"
 
-#include <penumbra/core/error.hpp>
-
-#include <algorithm>
-#include <cerrno>
-#include <cstring>
 #include <poll.h>
 #include <sys/eventfd.h>
 #include <sys/inotify.h>
 #include <unistd.h>
+
+#include <algorithm>
+#include <cerrno>
+#include <cstring>
+#include <penumbra/core/error.hpp>
 
 namespace penumbra::runtime {
 namespace fs = std::filesystem;
@@ -90,11 +90,11 @@ void Watcher::add_tree(const fs::path& dir, bool report_files) {
 
 bool Watcher::wanted(const std::string& name) const {
   if (options_.extensions.empty()) return true;
-  return std::any_of(options_.extensions.begin(), options_.extensions.end(),
-                     [&](const std::string& e) {
-                       return e.empty() || (name.size() >= e.size() &&
-                                            name.compare(name.size() - e.size(), e.size(), e) == 0);
-                     });
+  return std::any_of(
+      options_.extensions.begin(), options_.extensions.end(), [&](const std::string& e) {
+        return e.empty() ||
+               (name.size() >= e.size() && name.compare(name.size() - e.size(), e.size(), e) == 0);
+      });
 }
 
 void Watcher::handle_buffer(const char* data, size_t size, Clock::time_point now) {

@@ -235,7 +235,7 @@ struct Renderer::Impl {
       Spirvs spirv;
       try {
         spirv = compile_sources(r.sources, &deps);
-      } catch (const shader::CompileError& e) {
+      } catch (const Error& e) {  // a compile error, or a stage file that cannot be read
         result.failed.push_back(r.name);
         result.errors.push_back(e.what());
         continue;  // the last good pipeline stays

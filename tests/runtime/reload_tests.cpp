@@ -1,0 +1,311 @@
+// Hot reload through penumbra-view's session, on a copy of the shader tree, with full frames
+// (small): a valid edit changes the image; a broken edit keeps the previous image bit for bit and
+// reports the file:line of the error inside the included file; the fix gives the image of a
+// cold start; an edit to an included file rebuilds exactly the pipelines that read it; atomic
+// rename-saves and deleted-then-recreated files are picked up.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <chrono>
+#include <penumbra/core/error.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <set>
+
+#include "session.hpp"
+#include "temp_tree.hpp"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace std::chrono_literals;
+using testing::GpuTest;
+using ::testing::HasSubstr;
+using testing::TempTree;
+using ::testing::UnorderedElementsAreArray;
+
+constexpr uint32_t kWidth = 160, kHeight = 90;
+constexpr auto kTimeout = 10000ms;  // a reload compiles on a shared CPU; waits end early
+
+scene::Scene small_scene(std::string_view name) {
+  auto s = scene::load_scene(scene::find_scene(name));
+  s.render.width = kWidth;
+  s.render.height = kHeight;
+  s.shadows.resolution = std::min(s.shadows.resolution, 512u);  // fast frames
+  for (auto& p : s.points) p.resolution = std::min(p.resolution, 128u);
+  for (auto& p : s.spots) p.resolution = std::min(p.resolution, 256u);
+  return s;
+}
+
+// The first word of each pipeline name ("forward-opaque PENUMBRA_SUN_SHADOWS=1 ..." ->
+// "forward-opaque"), sorted.
+std::vector<std::string> short_names(const std::vector<std::string>& names) {
+  std::vector<std::string> out;
+  for (const auto& n : names) out.push_back(n.substr(0, n.find(' ')));
+  std::sort(out.begin(), out.end());
+  return out;
+}
+
+size_t differing_pixels(const std::vector<uint8_t>& a, const std::vector<uint8_t>& b) {
+  size_t n = 0;
+  for (size_t i = 0; i + 3 < std::min(a.size(), b.size()); i += 4)
+    n += (a[i] != b[i] || a[i + 1] != b[i + 1] || a[i + 2] != b[i + 2]) ? 1 : 0;
+  return n;
+}
+
+class ReloadTest : public GpuTest {
+ protected:
+  std::unique_ptr<runtime::Session> start(std::string_view scene = "default") {
+    runtime::SessionOptions o;
+    o.shader_dir = tree.shaders();
+    o.log = [this](const std::string& line) { log.push_back(line); };
+    auto s = std::make_unique<runtime::Session>(ctx(), small_scene(scene), o);
+    s->render();
+    return s;
+  }
+  // A renderer built from scratch on the tree as it is now: the cold-start reference.
+  std::vector<uint8_t> cold_start(std::string_view scene = "default") {
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
+    render::Renderer r(ctx(), small_scene(scene), o);
+    r.render(0);
+    return r.read_rgba8();
+  }
+  fs::path shader(const std::string& rel) const {
+    return fs::weakly_canonical(tree.shaders() / rel);
+  }
+  void edit(const std::string& rel, const std::string& from, const std::string& to) {
+    testing::write_text(shader(rel), testing::replaced(testing::read_text(shader(rel)), from, to));
+  }
+  bool logged(const std::string& text) const {
+    return std::any_of(log.begin(), log.end(),
+                       [&](const std::string& l) { return l.find(text) != std::string::npos; });
+  }
+
+  TempTree tree{true};
+  std::vector<std::string> log;
+};
+
+const std::string kExposure = "vec3 color = texelFetch(hdr, pixel, 0).rgb * frame.ambient.w;";
+const std::string kHalfExposure =
+    "vec3 color = texelFetch(hdr, pixel, 0).rgb * frame.ambient.w * 0.5;";
+// The last step of every PCF filter; "* 0.5 + 0.5" makes every shadow half as dark.
+const std::string kSaturate = "return pcf_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;";
+const std::string kLighterShadows =
+    "return pcf_is_finite(v) ? clamp(v * 0.5 + 0.5, 0.0, 1.0) : 1.0;";
+const std::string kClampRadius = "  return clamp(radius, 0, kPcfMaxRadius);";
+
+TEST_F(ReloadTest, AValidEditChangesTheImage) {
+  auto s = start();
+  const auto before = s->pixels();
+  edit("render/tonemap.comp", kExposure, kHalfExposure);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec) << "no reload";
+  EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
+  EXPECT_TRUE(rec->result.ok());
+  ASSERT_TRUE(rec->latency_ms) << "the frame after the reload measures the latency";
+  EXPECT_GT(*rec->latency_ms, 0.0);
+  EXPECT_TRUE(logged("[reload] rebuilt: tonemap")) << ::testing::PrintToString(log);
+  EXPECT_TRUE(logged("[reload] latency"));
+  const auto after = s->pixels();
+  EXPECT_GT(differing_pixels(before, after), before.size() / 4 / 2)
+      << "half the exposure darkens most pixels";
+  EXPECT_EQ(after, cold_start()) << "the reloaded pipeline renders what a fresh one does";
+}
+
+TEST_F(ReloadTest, AnEditOfALibraryFunctionChangesTheShadows) {
+  auto s = start();
+  const auto before = s->pixels();
+  edit("penumbra/pcf.glsl", kSaturate, kLighterShadows);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok());
+  const auto after = s->pixels();
+  EXPECT_GT(differing_pixels(before, after), 0u);
+}
+
+TEST_F(ReloadTest, ABrokenEditKeepsTheImageAndNamesTheIncludedFileAndLine) {
+  auto s = start();
+  const auto before = s->pixels();
+  const std::string text = testing::read_text(shader("penumbra/pcf.glsl"));
+  const int line = testing::line_of(text, kClampRadius);
+  ASSERT_GT(line, 0);
+  edit("penumbra/pcf.glsl", kClampRadius, "  return clamp(radius, 0, kPcfMaxRadius) +;");
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.rebuilt.empty());
+  EXPECT_EQ(short_names(rec->result.failed),
+            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  // The error is in pcf.glsl (included by shadow.glsl, included by shadow_resolve.comp), at
+  // the line edited — not at a line of the expanded source.
+  const std::string where = shader("penumbra/pcf.glsl").string() + ":" + std::to_string(line) + ":";
+  EXPECT_THAT(s->error_text(), HasSubstr(where));
+  for (const auto& [name, error] : s->errors()) EXPECT_THAT(error, HasSubstr(where)) << name;
+  EXPECT_TRUE(logged("[reload] error: " + where)) << ::testing::PrintToString(log);
+  s->render();
+  EXPECT_EQ(s->pixels(), before) << "the last good pipelines must keep rendering";
+}
+
+TEST_F(ReloadTest, TheFixAfterABrokenEditGivesTheImageOfAColdStart) {
+  auto s = start();
+  const auto original = s->pixels();
+  const std::string good = testing::read_text(shader("penumbra/pcf.glsl"));
+  edit("penumbra/pcf.glsl", kClampRadius, "  return clamp(radius, 0, kPcfMaxRadius) +;");
+  ASSERT_TRUE(s->wait_reload(kTimeout));
+  ASSERT_FALSE(s->errors().empty());
+  // The fix also changes what the filter does, so the image to match is a new one.
+  testing::write_text(shader("penumbra/pcf.glsl"),
+                      testing::replaced(good, kSaturate, kLighterShadows));
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.rebuilt),
+            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  EXPECT_TRUE(s->errors().empty()) << "a good edit clears the error: " << s->error_text();
+  const auto fixed = s->pixels();
+  EXPECT_GT(differing_pixels(original, fixed), 0u);
+  EXPECT_EQ(fixed, cold_start()) << "bit-identical to a renderer built on the fixed tree";
+}
+
+TEST_F(ReloadTest, FixingAFileThatOnlyTheBrokenSourceIncludesClearsTheError) {
+  // The broken edit adds an #include of a new file that has the error; the last good pipeline
+  // never read that file, so its fix is matched through the failed batch's files.
+  auto s = start();
+  testing::write_text(shader("penumbra/exposure.glsl"), "float exposure_scale() { return 0.5 }\n");
+  std::string tonemap = testing::read_text(shader("render/tonemap.comp"));
+  tonemap = testing::replaced(tonemap, "#include \"penumbra/frame_types.glsl\"",
+                              "#include \"penumbra/frame_types.glsl\"\n"
+                              "#include \"penumbra/exposure.glsl\"");
+  tonemap = testing::replaced(
+      tonemap, kExposure,
+      "vec3 color = texelFetch(hdr, pixel, 0).rgb * frame.ambient.w * exposure_scale();");
+  testing::write_text(shader("render/tonemap.comp"), tonemap);  // one save
+  auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_EQ(short_names(rec->result.failed), std::vector<std::string>{"tonemap"});
+  EXPECT_THAT(s->error_text(), HasSubstr(shader("penumbra/exposure.glsl").string() + ":1:"));
+  testing::write_text(shader("penumbra/exposure.glsl"), "float exposure_scale() { return 0.5; }\n");
+  rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
+  EXPECT_TRUE(s->errors().empty()) << s->error_text();
+  EXPECT_EQ(s->pixels(), cold_start());
+}
+
+struct IncludeCase {
+  std::string scene;
+  std::string file;
+  std::vector<std::string> rebuilt;  // first words of the pipeline names, sorted
+};
+
+void PrintTo(const IncludeCase& c, std::ostream* os) {
+  *os << c.scene << ": " << c.file;
+}
+
+class IncludeEdit : public ReloadTest, public ::testing::WithParamInterface<IncludeCase> {};
+
+TEST_P(IncludeEdit, RebuildsExactlyThePipelinesThatReadTheFile) {
+  const auto& c = GetParam();
+  auto s = start(c.scene);
+  const auto readers = s->renderer().pipelines_reading(shader(c.file));
+  EXPECT_EQ(short_names(readers), c.rebuilt) << "the dependency graph changed?";
+  const std::string text = testing::read_text(shader(c.file));
+  testing::write_text(shader(c.file), text + "\n// edited\n");
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.rebuilt), c.rebuilt);
+  EXPECT_THAT(rec->result.rebuilt, UnorderedElementsAreArray(readers));
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Files, IncludeEdit,
+    ::testing::Values(
+        IncludeCase{"default",
+                    "penumbra/material.glsl",
+                    {"forward-masked", "forward-opaque", "prepass-masked", "prepass-opaque",
+                     "sun-shadow-masked"}},
+        IncludeCase{
+            "default", "penumbra/pcf.glsl", {"forward-masked", "forward-opaque", "shadow-resolve"}},
+        IncludeCase{"default",
+                    "penumbra/noise.glsl",
+                    {"contact-shadows", "forward-masked", "forward-opaque", "shadow-resolve"}},
+        IncludeCase{"default", "penumbra/vsm.glsl", {"shadow-resolve"}},
+        IncludeCase{"default", "contact_shadows.comp", {"contact-shadows"}},
+        IncludeCase{"default", "render/tonemap.comp", {"tonemap"}},
+        IncludeCase{"indoor",
+                    "penumbra/material.glsl",
+                    {"forward-masked", "forward-opaque", "point-shadow-cube", "prepass-masked",
+                     "prepass-opaque", "spot-shadow-masked"}}),
+    [](const ::testing::TestParamInfo<IncludeCase>& i) {
+      std::string n = i.param.scene + "_" + i.param.file;
+      for (char& ch : n)
+        if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+      return n;
+    });
+
+TEST_F(ReloadTest, AnAtomicRenameSaveTriggersTheReload) {
+  auto s = start();
+  const auto before = s->pixels();
+  const auto file = shader("penumbra/pcf.glsl");
+  testing::atomic_save(file,
+                       testing::replaced(testing::read_text(file), kSaturate, kLighterShadows));
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec) << "the rename over the original was not seen";
+  EXPECT_THAT(rec->changed, ::testing::Contains(file));
+  EXPECT_EQ(short_names(rec->result.rebuilt),
+            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  EXPECT_GT(differing_pixels(before, s->pixels()), 0u);
+}
+
+TEST_F(ReloadTest, DeletingAndRecreatingAFileWorks) {
+  auto s = start();
+  const auto before = s->pixels();
+  for (const std::string rel : {"penumbra/pcf.glsl", "render/tonemap.comp"}) {
+    SCOPED_TRACE(rel);
+    const auto file = shader(rel);
+    const std::string text = testing::read_text(file);
+    fs::remove(file);
+    auto rec = s->wait_reload(kTimeout);
+    ASSERT_TRUE(rec) << "the deletion was not reported";
+    EXPECT_THAT(rec->deleted, ::testing::ElementsAre(file));
+    EXPECT_TRUE(rec->result.rebuilt.empty());
+    EXPECT_TRUE(logged(rel + " was deleted"));
+    s->render();
+    EXPECT_EQ(s->pixels(), before) << "the pipelines keep running without their file";
+    testing::write_text(file, text);
+    rec = s->wait_reload(kTimeout);
+    ASSERT_TRUE(rec) << "the recreated file was not reloaded";
+    EXPECT_TRUE(rec->result.ok()) << s->error_text();
+    EXPECT_FALSE(rec->result.rebuilt.empty());
+    EXPECT_EQ(s->pixels(), before);
+  }
+  // A recreated file with new content is reloaded like any edit.
+  const auto file = shader("render/tonemap.comp");
+  const std::string text = testing::read_text(file);
+  fs::remove(file);
+  ASSERT_TRUE(s->wait_reload(kTimeout));
+  testing::write_text(file, testing::replaced(text, kExposure, kHalfExposure));
+  ASSERT_TRUE(s->wait_reload(kTimeout));
+  EXPECT_EQ(s->pixels(), cold_start());
+  EXPECT_NE(s->pixels(), before);
+}
+
+TEST_F(ReloadTest, AParameterThatChangesWhatIsBuiltRebuildsAndKeepsReloading) {
+  auto s = start();
+  EXPECT_TRUE(s->renderer().built().has_pass("contact-shadows"));
+  s->set("contact.steps", "0");
+  EXPECT_FALSE(s->renderer().built().has_pass("contact-shadows"));
+  s->set("shadows.filter", "pcss");
+  EXPECT_EQ(s->get("shadows.filter"), "pcss");
+  EXPECT_THROW(s->set("shadows.pcf_radius", "9"), Error);
+  EXPECT_EQ(s->get("shadows.pcf_radius"), "1") << "a bad value leaves the parameter as it was";
+  edit("render/tonemap.comp", kExposure, kHalfExposure);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
+}
+
+}  // namespace
+}  // namespace penumbra

@@ -1,0 +1,181 @@
+// penumbra-view's automation mode: a script that sets parameters, renders, takes screenshots and
+// edits shaders end to end (the real executable, on a copy of the shader tree), and errors that
+// name the script line.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <penumbra/core/error.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <sstream>
+
+#include "script.hpp"
+#include "temp_tree.hpp"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::GpuTest;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using testing::TempTree;
+
+struct Run {
+  int status = 0;
+  std::string output;
+};
+
+Run view(const std::string& args) {
+  const std::string cmd = std::string(PENUMBRA_VIEW_EXE) + " --headless " + args + " 2>&1";
+  Run r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) r.output += buf;
+  r.status = pclose(p);
+  return r;
+}
+
+TEST(SplitCommand, SplitsOnSpacesAndKeepsQuotedText) {
+  EXPECT_EQ(runtime::split_command("  set shadows.filter   pcss # comment"),
+            (std::vector<std::string>{"set", "shadows.filter", "pcss"}));
+  EXPECT_EQ(runtime::split_command(R"(replace f.glsl "a b;" "c \"d\"\n")"),
+            (std::vector<std::string>{"replace", "f.glsl", "a b;", "c \"d\"\n"}));
+  EXPECT_TRUE(runtime::split_command("# only a comment").empty());
+  EXPECT_THROW(runtime::split_command("echo \"open"), Error);
+}
+
+TEST(ScriptEndToEnd, SetsRendersScreenshotsAndReloadsWithoutValidationMessages) {
+  TempTree tree(true);
+  const fs::path pcf = tree.shaders() / "penumbra" / "pcf.glsl";
+  const int line =
+      testing::line_of(testing::read_text(pcf), "  return clamp(radius, 0, kPcfMaxRadius);");
+  ASSERT_GT(line, 0);
+  const fs::path script = tree.root() / "check.txt";
+  const fs::path a = tree.root() / "a.png", b = tree.root() / "b.png", c = tree.root() / "c.png";
+  testing::write_text(script,
+                      "# a tour of the commands\n"
+                      "scene default\n"
+                      "size 160x90\n"
+                      "set shadows.resolution 512\n"
+                      "set shadows.filter pcss\n"
+                      "set contact.steps 0\n"
+                      "set shadows.pcf_radius 3\n"
+                      "set camera.position 0.5, 2.6, 6.2\n"
+                      "view cascades\n"
+                      "render 2\n"
+                      "screenshot " +
+                          a.string() +
+                          "\n"
+                          "view lit\n"
+                          "replace penumbra/pcf.glsl \"kPcfMaxRadius);\" \"kPcfMaxRadius) +;\"\n"
+                          "expect_reload_error penumbra/pcf.glsl:" +
+                          std::to_string(line) +
+                          ":\n"
+                          "screenshot " +
+                          b.string() +
+                          "\n"
+                          "replace penumbra/pcf.glsl \"kPcfMaxRadius) +;\" \"kPcfMaxRadius);\"\n"
+                          "expect_reload_ok\n"
+                          "expect_rebuilt shadow-resolve forward-opaque forward-masked\n"
+                          "screenshot " +
+                          c.string() +
+                          "\n"
+                          "timings\n"
+                          "quit\n"
+                          "this line is never read\n");
+  const auto r = view("--shader-dir " + tree.shaders().string() + " --script " + script.string());
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("[reload] error: "));
+  EXPECT_THAT(r.output, HasSubstr("pcf.glsl:" + std::to_string(line) + ":"));
+  EXPECT_THAT(r.output, HasSubstr("[reload] rebuilt: shadow-resolve"));
+  EXPECT_THAT(r.output, HasSubstr("[reload] latency"));
+  EXPECT_THAT(r.output, HasSubstr("reload latency (file event -> first frame"));
+  EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
+  EXPECT_THAT(r.output, Not(HasSubstr("contact-shadows "))) << "contact.steps 0 removes the pass";
+  ASSERT_TRUE(fs::exists(a) && fs::exists(b) && fs::exists(c)) << r.output;
+  // The cascades view differs from the lit one; the broken edit left the image as it was and
+  // the fix restored the same source, so b == c byte for byte (PNG encoding is deterministic).
+  EXPECT_NE(testing::read_text(a), testing::read_text(b));
+  EXPECT_EQ(testing::read_text(b), testing::read_text(c));
+}
+
+TEST(ScriptEndToEnd, AnErrorNamesTheScriptLineAndFails) {
+  TempTree tree(false);
+  const fs::path script = tree.root() / "bad.txt";
+  testing::write_text(script, "size 160x90\n\nset shadows.pcf_radius 9\nrender\n");
+  auto r = view("--script " + script.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output,
+              HasSubstr("bad.txt:3: set shadows.pcf_radius 9: expected an integer in [0, 8]"));
+
+  testing::write_text(script, "size 160x90\nrendr 2\n");
+  r = view("--script " + script.string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("bad.txt:2: unknown command 'rendr'"));
+
+  r = view("--size 160x90 --command \"set shadows.filter pcx\"");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(
+      r.output,
+      HasSubstr("--command 1: set shadows.filter pcx: expected one of hard, pcf, pcss, poisson"));
+}
+
+// The same commands in process, for the error cases that need no frame.
+class ScriptTest : public GpuTest {
+ protected:
+  std::string error_of(const std::string& text) {
+    runtime::ScriptSetup setup;
+    setup.session.shader_dir = tree.shaders();
+    setup.session.width = 160;
+    setup.session.height = 90;
+    setup.session.log = [](const std::string&) {};
+    setup.timeout = std::chrono::milliseconds(300);
+    runtime::Script script(ctx(), setup);
+    std::istringstream in(text);
+    try {
+      script.run(in, "t.txt");
+    } catch (const Error& e) {
+      return e.what();
+    }
+    return "";
+  }
+  TempTree tree{true};
+};
+
+TEST_F(ScriptTest, ErrorsNameTheLineTheCommandAndTheValue) {
+  EXPECT_THAT(error_of("\nscene nowhere_to_be_found\n"), HasSubstr("t.txt:2: scene"));
+  EXPECT_THAT(error_of("set shadows.filtr pcf\n"),
+              HasSubstr("t.txt:1: set: unknown parameter 'shadows.filtr' (did you mean "
+                        "'shadows.filter'?)"));
+  EXPECT_THAT(error_of("set camera.position 1,2\n"),
+              HasSubstr("t.txt:1: set camera.position 1,2: expected three numbers"));
+  EXPECT_THAT(error_of("view wireframe\n"),
+              HasSubstr("t.txt:1: view: render.view wireframe: expected one of lit,"));
+  EXPECT_THAT(error_of("render 1 2\n"), HasSubstr("t.txt:1: render: expected [N]"));
+  EXPECT_THAT(error_of("screenshot out.jpg\n"), HasSubstr("expected a .png path"));
+  EXPECT_THAT(error_of("wait_reload 100\n"), HasSubstr("t.txt:1: wait_reload: no edit"));
+  EXPECT_THAT(error_of("expect_reload_ok\n"), HasSubstr("t.txt:1: expect_reload_ok: no reload"));
+  EXPECT_THAT(error_of("replace penumbra/pcf.glsl \"no such text\" \"x\"\n"),
+              HasSubstr("does not occur in"));
+  EXPECT_THAT(error_of("echo \"unterminated\n"), HasSubstr("t.txt:1: unterminated"));
+  EXPECT_EQ(error_of("# nothing but a comment\n\nquit\nrendr\n"), "") << "quit stops the script";
+}
+
+TEST_F(ScriptTest, ReplaceRefusesTheRepositoryShaders) {
+  runtime::ScriptSetup setup;  // no shader_dir: the repo's shaders/
+  setup.session.width = 160;
+  setup.session.height = 90;
+  setup.session.log = [](const std::string&) {};
+  runtime::Script script(ctx(), setup);
+  try {
+    script.run_line("replace penumbra/pcf.glsl \"a\" \"b\"", "t.txt:1");
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("refusing to edit the repository's shaders/"));
+  }
+}
+
+}  // namespace
+}  // namespace penumbra
