@@ -125,6 +125,8 @@ Options parse(int argc, char** argv) {
       if (o.edits < 2) throw Error("--edits: expected at least 2");
     } else if (a == "--file")
       o.only.push_back(value());
+    else if (a == "--shader-dir")
+      o.shader_dir = value();
     else if (a == "--help" || a == "-h") {
       std::printf(
           "usage: penumbra-reload-bench [--scene NAME] [--size WxH] [--edits N] [--file F]...\n"
