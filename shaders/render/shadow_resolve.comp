@@ -31,13 +31,6 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   coord.z = apply_depth_bias(coord.z, bias, reverse_z);
   vec2 texel = vec2(1.0 / float(shadow.counts.z));
   float rotation = 6.2831853 * interleaved_gradient_noise_temporal(pixel, frame.mode.x);
-  uint filter_mode = frame.mode.z;
-  if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
-  if (filter_mode == kFilterPcf)
-    return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);
-  if (filter_mode == kFilterPoisson)
-    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), frame.filter_params.w,
-                             rotation, texel);
   PcssParams params;
   params.tan_half_angle = shadow.pcss.x;
   params.texel_world_size = texel_world;
@@ -47,14 +40,24 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   params.min_filter_texels = shadow.pcss.z;
   params.max_filter_texels = shadow.pcss.w;
   params.confidence_fraction = 0.1;
+  // The penumbra debug view shows the PCSS estimate whatever the filter: the width the sun's
+  // angular size would give here.
   if (frame.mode.w == kViewPenumbra) {
     float average;
     int blockers;
     float radius = pcss_search_radius_texels(clamp(coord.z, 0.0, 1.0), params, reverse_z);
-    pcss_blocker_search_array(shadow_depth, coord, c, radius, pcss_search_tap_count(int(frame.filter_params.y)),
-                              rotation, texel, reverse_z, average, blockers);
+    pcss_blocker_search_array(shadow_depth, coord, c, radius,
+                              pcss_search_tap_count(int(frame.filter_params.y)), rotation, texel,
+                              reverse_z, average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
+  uint filter_mode = frame.mode.z;
+  if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
+  if (filter_mode == kFilterPcf)
+    return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);
+  if (filter_mode == kFilterPoisson)
+    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z),
+                             frame.filter_params.w, rotation, texel);
   return pcss_shadow_array(shadow_compare, shadow_depth, coord, c, texel, params,
                            int(frame.filter_params.y), rotation, reverse_z);
 }

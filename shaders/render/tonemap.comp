@@ -61,6 +61,11 @@ void main() {
     // (one texel covers several pixels: blocky shadows), blue oversampled.
     out_rgb = info.g >= 0.0 ? heat(0.5 - log2(max(info.a, 1e-6)) / 6.0) : vec3(0.0);
   }
-  if (view == kViewPenumbra) out_rgb = heat(max(info.b, 0.0) / 16.0) * (info.g >= 0.0 ? 1.0 : 0.0);
+  if (view == kViewPenumbra) {
+    // PCSS penumbra width in texels, 0 (blue) to 16+ (red), over a grey copy of the image where
+    // no blocker was found.
+    float grey = dot(out_rgb, vec3(0.2126, 0.7152, 0.0722)) * 0.6;
+    out_rgb = info.b > 0.0 ? heat(info.b / 16.0) : vec3(grey);
+  }
   imageStore(ldr, pixel, vec4(out_rgb, 1.0));
 }
