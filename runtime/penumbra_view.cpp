@@ -13,6 +13,7 @@
 #include <fstream>
 #include <iostream>
 #include <map>
+#include <memory>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/render/renderer.hpp>
@@ -22,6 +23,13 @@
 
 #include "script.hpp"
 #include "session.hpp"
+#include "window.hpp"
+#ifdef PENUMBRA_HAS_IMGUI
+#include "ui.hpp"
+#endif
+
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
 
 namespace {
 
@@ -39,6 +47,8 @@ struct Options {
   bool list_devices = false;
   fs::path shader_dir;  // empty: the repo's shaders/
   bool watch = false;
+  bool exit_after_frames = false;  // window: close after --frames presented frames
+  bool ui = true;                  // window: the Dear ImGui parameter panel
   uint32_t debounce_ms = 50;
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
@@ -87,9 +97,15 @@ void usage() {
       "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
       "                     [--shader-dir DIR] [--watch] [--debounce-ms N]\n"
+      "                     [--exit-after-frames] [--no-ui]\n"
       "                     [--script FILE|-] [--command LINE]...\n"
       "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
       "  --headless    render offscreen and write PNGs (the default when there is no display)\n"
+      "  window mode   (a display and no --headless): the live view with hot reload; left drag\n"
+      "                orbits, right drag looks, WASD/QE fly (Shift: faster), scroll zooms,\n"
+      "                V / F cycle the view / filter, R resets the camera, Esc closes\n"
+      "  --exit-after-frames  window mode: close after --frames N presented frames\n"
+      "  --no-ui       window mode without the parameter panel (Dear ImGui)\n"
       "  --out         where PNGs and timings go (default out/<scene>)\n"
       "  --view        %s (default: lit, then every debug view)\n"
       "  --filter      %s (default: the scene's)\n"
@@ -146,6 +162,10 @@ Options parse(int argc, char** argv) {
         throw Error("--shader-dir " + o.shader_dir.string() + ": not a directory");
     } else if (a == "--watch")
       o.watch = true;
+    else if (a == "--exit-after-frames")
+      o.exit_after_frames = true;
+    else if (a == "--no-ui")
+      o.ui = false;
     else if (a == "--debounce-ms")
       o.debounce_ms = parse_uint(a, value());
     else if (a == "--script")
@@ -223,6 +243,133 @@ int run_scripts(penumbra::gpu::Context& ctx, const Options& o) {
   return validation_result(ctx);
 }
 
+// Cycles a parameter through the names of `m` (V: views, F: filters).
+template <class M>
+void cycle(penumbra::runtime::Session& session, const std::string& key, const M& m) {
+  std::vector<std::string> names;
+  for (const auto& [name, value] : m) names.push_back(name);
+  const auto it = std::find(names.begin(), names.end(), session.get(key));
+  const size_t next = it == names.end() ? 0 : (size_t(it - names.begin()) + 1) % names.size();
+  session.set(key, names[next]);
+  std::printf("[window] %s = %s\n", key.c_str(), names[next].c_str());
+  std::fflush(stdout);
+}
+
+// Window mode: render and present every frame; the reload loop runs between frames and its
+// error shows in the title.
+int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, const Options& o,
+               const penumbra::scene::Scene& scene, uint32_t frames) {
+  using Clock = std::chrono::steady_clock;
+  penumbra::runtime::Session session(ctx, scene, session_options(o, true));
+  if (!o.view.empty()) session.set("render.view", o.view);
+  std::printf("\nbuilt for this scene:\n%s", session.renderer().built().to_string().c_str());
+  std::printf(
+      "\n[window] %ux%u, watching %s; left drag orbits, right drag looks, WASD/QE fly, scroll "
+      "zooms, V/F cycle view/filter, R resets the camera, Esc closes\n",
+      window.width(), window.height(), session.shader_dir().string().c_str());
+  std::fflush(stdout);
+  std::signal(SIGINT, on_signal);
+  std::signal(SIGTERM, on_signal);
+
+#ifdef PENUMBRA_HAS_IMGUI
+  std::unique_ptr<penumbra::runtime::Ui> ui;
+  if (o.ui) ui = std::make_unique<penumbra::runtime::Ui>(ctx, window);
+  std::printf("[window] panel: %s\n",
+              ui ? penumbra::runtime::ui_version().c_str() : "off (--no-ui)");
+  const auto ui_mouse = [&] { return ui && ui->wants_mouse(); };
+  const auto ui_keyboard = [&] { return ui && ui->wants_keyboard(); };
+#else
+  std::printf("[window] panel: not built (libimgui-dev missing)\n");
+  const auto ui_mouse = [] { return false; };
+  const auto ui_keyboard = [] { return false; };
+#endif
+  const penumbra::scene::Camera home = session.renderer().scene().camera;
+  penumbra::runtime::CameraControls controls;
+  auto last = Clock::now();
+  auto last_title = last - std::chrono::seconds(1);
+  double fps = 0.0;
+  uint32_t frame = 0, frames_since_title = 0;
+  std::string title, shown_error;
+  while (!window.should_close() && !g_stop) {
+    window.poll();
+    const auto now = Clock::now();
+    const double dt = std::chrono::duration<double>(now - last).count();
+    last = now;
+#ifdef PENUMBRA_HAS_IMGUI
+    if (ui) {
+      ui->new_frame();
+      ui->panel(session);
+    }
+#endif
+    const std::vector<int> keys = window.take_keys();
+    const double scroll = window.take_scroll();
+    for (const int key : ui_keyboard() ? std::vector<int>{} : keys) {
+      if (key == GLFW_KEY_ESCAPE) window.close();
+      if (key == GLFW_KEY_V) cycle(session, "render.view", views());
+      if (key == GLFW_KEY_F) cycle(session, "shadows.filter", filters());
+      if (key == GLFW_KEY_R) session.renderer().scene().camera = home;
+    }
+    // After the panel: a parameter it set may have rebuilt the renderer (and its scene).
+    if (ui_mouse())
+      controls.cancel();
+    else
+      controls.update(window.handle(), session.renderer().scene().camera, dt, scroll);
+
+    session.set_frame_index(frame++);
+    session.render(1);
+#ifdef PENUMBRA_HAS_IMGUI
+    if (ui)
+      window.present(session.renderer().output_image(),
+                     [&](VkCommandBuffer cmd) { ui->record(cmd); });
+    else
+#endif
+      window.present(session.renderer().output_image());
+
+    ++frames_since_title;
+    if (now - last_title > std::chrono::milliseconds(250)) {
+      if (frame > frames_since_title)  // the first update has no full interval
+        fps = frames_since_title / std::chrono::duration<double>(now - last_title).count();
+      frames_since_title = 0;
+      char head[256];
+      std::snprintf(head, sizeof head, "penumbra-view - %s - %s, %s - %.1f fps", scene.name.c_str(),
+                    session.get("render.view").c_str(), session.get("shadows.filter").c_str(), fps);
+      std::string t = head;
+      std::string error = session.error_text();
+      if (!error.empty()) {
+        error = error.substr(0, error.find('\n'));
+        if (error.size() > 160) error = error.substr(0, 157) + "...";
+        t += " - RELOAD ERROR: " + error;
+      }
+      if (error != shown_error) {
+        std::printf("[window] title %s: %s\n", error.empty() ? "clear" : "shows the reload error",
+                    t.c_str());
+        std::fflush(stdout);
+        shown_error = error;
+      }
+      if (t != title) window.set_title(t);
+      title = t;
+      last_title = now;
+    }
+    if (o.exit_after_frames && window.presented() >= frames) break;
+  }
+  const auto name = [&](VkFormat f) {
+    return f == VK_FORMAT_B8G8R8A8_UNORM   ? std::string("B8G8R8A8_UNORM")
+           : f == VK_FORMAT_R8G8B8A8_UNORM ? std::string("R8G8B8A8_UNORM")
+                                           : "VkFormat " + std::to_string(f);
+  };
+  std::printf(
+      "\n[window] presented %llu frames (%u rendered) to a %ux%u %s swapchain, recreated %u "
+      "times\n",
+      static_cast<unsigned long long>(window.presented()), frame, window.width(), window.height(),
+      name(window.format()).c_str(), window.recreated());
+  std::printf("[window] last title: %s\n", title.c_str());
+  std::printf("[window] camera.position %s, camera.target %s\n",
+              session.get("camera.position").c_str(), session.get("camera.target").c_str());
+  std::printf("GPU time per pass of the last frame:\n%s", session.timings_text().c_str());
+  print_latency_summary(session);
+  return validation_result(ctx);
+}
+
 int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   if (o.list_devices) {
@@ -231,12 +378,34 @@ int run(int argc, char** argv) {
   }
   const bool display =
       std::getenv("DISPLAY") != nullptr || std::getenv("WAYLAND_DISPLAY") != nullptr;
-  if (!o.headless && display) {
-    std::printf("penumbra-view: the interactive window is not built yet; rendering headless\n");
+  std::string why;
+  std::unique_ptr<penumbra::runtime::WindowSystem> glfw;
+  if (!o.headless) {
+    if (!o.scripts.empty())
+      why = "--script / --command run headless";
+    else if (!display)
+      why = "no display (DISPLAY and WAYLAND_DISPLAY are unset)";
+    else
+      glfw = penumbra::runtime::WindowSystem::init(why);
   }
+  // With a window system: the instance extensions it needs and VK_KHR_swapchain.
+  std::unique_ptr<penumbra::gpu::Context> context;
+  if (glfw) {
+    penumbra::gpu::ContextOptions co;
+    co.instance_extensions = glfw->instance_extensions();
+    co.device_extensions = {VK_KHR_SWAPCHAIN_EXTENSION_NAME};
+    try {
+      context = std::make_unique<penumbra::gpu::Context>(co);
+    } catch (const std::exception& e) {
+      why = std::string("no Vulkan context that can present: ") + e.what();
+      glfw.reset();
+    }
+  }
+  if (!context) context = std::make_unique<penumbra::gpu::Context>();
+  penumbra::gpu::Context& ctx = *context;
 
   if (!o.scripts.empty()) {
-    penumbra::gpu::Context ctx;
+    if (!o.headless && display) std::printf("penumbra-view: %s\n", why.c_str());
     std::printf("%s", ctx.report().c_str());
     return run_scripts(ctx, o);
   }
@@ -246,9 +415,20 @@ int run(int argc, char** argv) {
   if (!o.filter.empty()) scene.shadows.filter = filters().at(o.filter);
   const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);
 
-  penumbra::gpu::Context ctx;
+  std::unique_ptr<penumbra::runtime::Window> window;
+  if (glfw) {
+    try {
+      window = std::make_unique<penumbra::runtime::Window>(
+          ctx, o.width ? o.width : scene.render.width, o.height ? o.height : scene.render.height,
+          "penumbra-view - " + scene.name);
+    } catch (const std::exception& e) {
+      why = std::string("no window: ") + e.what();
+    }
+  }
   std::printf("%s", ctx.report().c_str());
   std::printf("scene:       %s (%s)\n", scene.name.c_str(), scene_file.string().c_str());
+  if (window) return run_window(ctx, *window, o, scene, frames);
+  if (!o.headless) std::printf("penumbra-view: rendering headless: %s\n", why.c_str());
 
   const auto t0 = std::chrono::steady_clock::now();
   penumbra::runtime::Session session(ctx, scene, session_options(o, o.watch));

@@ -211,6 +211,7 @@ Context::Context(const ContextOptions& options) {
     layers.push_back(kValidationLayer);
     extensions.push_back(VK_EXT_DEBUG_UTILS_EXTENSION_NAME);
   }
+  for (const auto& e : options.instance_extensions) extensions.push_back(e.c_str());
 
   VkApplicationInfo app{VK_STRUCTURE_TYPE_APPLICATION_INFO};
   app.pApplicationName = "penumbra";
@@ -284,6 +285,10 @@ Context::Context(const ContextOptions& options) {
     VkDeviceCreateInfo dci{VK_STRUCTURE_TYPE_DEVICE_CREATE_INFO, &features};
     dci.queueCreateInfoCount = 1;
     dci.pQueueCreateInfos = &qci;
+    std::vector<const char*> device_extensions;
+    for (const auto& e : options.device_extensions) device_extensions.push_back(e.c_str());
+    dci.enabledExtensionCount = static_cast<uint32_t>(device_extensions.size());
+    dci.ppEnabledExtensionNames = device_extensions.data();
     check(vkCreateDevice(physical_device_, &dci, nullptr, &device_), "vkCreateDevice");
     vkGetDeviceQueue(device_, info_.queue_family, 0, &queue_);
 

@@ -1057,6 +1057,10 @@ const BuildReport& Renderer::built() const {
 const std::vector<PassTiming>& Renderer::timings() const {
   return impl_->timings;
 }
+const gpu::Image& Renderer::output_image() const {
+  return impl_->ldr;
+}
+
 void Renderer::set_debug_view(scene::DebugView view) {
   impl_->scene.render.view = view;
 }

@@ -7,6 +7,7 @@
 #include <optional>
 #include <penumbra/gpu/validation.hpp>
 #include <string>
+#include <vector>
 
 namespace penumbra::gpu {
 
@@ -19,6 +20,10 @@ struct ContextOptions {
   std::optional<bool> validation;
   // Print the device report to stderr when the context is created.
   bool print_report = false;
+  // Extra instance / device extensions (a window: glfwGetRequiredInstanceExtensions and
+  // VK_KHR_swapchain). Context creation fails naming them when one is missing.
+  std::vector<std::string> instance_extensions;
+  std::vector<std::string> device_extensions;
 };
 
 struct DeviceInfo {

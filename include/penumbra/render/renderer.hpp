@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <memory>
 #include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/resources.hpp>
 #include <penumbra/render/frame_types.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
@@ -68,6 +69,9 @@ class Renderer {
   const std::vector<PassTiming>& timings() const;
 
   void set_debug_view(scene::DebugView view);
+  // The last frame's tonemapped image (RGBA8, the size above); after render() it is in
+  // VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL (output_image().layout()) and the GPU is idle.
+  const gpu::Image& output_image() const;
 
   // Hot reload: rebuilds exactly the pipelines whose shader sources or includes read one of
   // these files. A source that fails to compile leaves its pipeline as it was.

@@ -1,0 +1,179 @@
+// penumbra-view's window mode under Xvfb (a GLFW window and a Vulkan swapchain on lavapipe or a
+// GPU): it presents frames with the validation layer silent, shows a reload error in the title,
+// and falls back to headless without a display. Xvfb is required (CI installs it): when it
+// cannot start, the tests fail and say so.
+#include <fcntl.h>
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <poll.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <string>
+#include <thread>
+
+#include "temp_tree.hpp"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::HasSubstr;
+using ::testing::Not;
+using testing::TempTree;
+
+// An Xvfb server on a display it picks itself (-displayfd), stopped by the destructor.
+class Xvfb {
+ public:
+  Xvfb() {
+    int fds[2];
+    if (pipe(fds) != 0) {
+      error_ = "pipe failed";
+      return;
+    }
+    pid_ = fork();
+    if (pid_ == 0) {
+      close(fds[0]);
+      const int null = open("/dev/null", O_WRONLY);
+      dup2(null, 1);
+      dup2(null, 2);
+      const std::string fd = std::to_string(fds[1]);
+      execlp("Xvfb", "Xvfb", "-displayfd", fd.c_str(), "-screen", "0", "640x480x24", "-nolisten",
+             "tcp", static_cast<char*>(nullptr));
+      _exit(127);
+    }
+    close(fds[1]);
+    std::string number;
+    pollfd p{fds[0], POLLIN, 0};
+    while (poll(&p, 1, 5000) > 0) {
+      char c = 0;
+      if (read(fds[0], &c, 1) != 1 || c == '\n') break;
+      number += c;
+    }
+    close(fds[0]);
+    if (pid_ < 0 || number.empty()) {
+      error_ =
+          "Xvfb did not start (is the xvfb package installed? .ci/install-deps.sh installs it); "
+          "the window tests need it";
+    } else {
+      display_ = ":" + number;
+    }
+  }
+  ~Xvfb() {
+    if (pid_ > 0) {
+      kill(pid_, SIGTERM);
+      waitpid(pid_, nullptr, 0);
+    }
+  }
+  Xvfb(const Xvfb&) = delete;
+  Xvfb& operator=(const Xvfb&) = delete;
+
+  const std::string& display() const { return display_; }
+  const std::string& error() const { return error_; }
+
+ private:
+  pid_t pid_ = -1;
+  std::string display_, error_;
+};
+
+struct Result {
+  int status = 0;
+  std::string output;
+};
+
+Result shell(const std::string& cmd) {
+  Result r;
+  FILE* p = popen((cmd + " 2>&1").c_str(), "r");
+  if (!p) return {-1, "popen failed"};
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) r.output += buf;
+  r.status = pclose(p);
+  return r;
+}
+
+TEST(WindowMode, PresentsFramesUnderXvfbWithoutValidationMessages) {
+  Xvfb x;
+  ASSERT_TRUE(x.error().empty()) << x.error();
+  // With the parameter panel (when built with Dear ImGui) and without it.
+  for (const std::string flags : {"", " --no-ui"}) {
+    const Result r =
+        shell("env DISPLAY=" + x.display() + " PENUMBRA_VALIDATION=1 " + PENUMBRA_VIEW_EXE +
+              " --frames 3 --exit-after-frames --size 160x120" + flags);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("[window] presented 3 frames (3 rendered) to a 160x120"));
+    EXPECT_THAT(r.output, HasSubstr(flags.empty() ? "[window] panel: " : "panel: off"));
+    EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
+    EXPECT_THAT(r.output, Not(HasSubstr("rendering headless")));
+  }
+}
+
+TEST(WindowMode, ShowsTheReloadErrorInTheTitleUntilItIsFixed) {
+  Xvfb x;
+  ASSERT_TRUE(x.error().empty()) << x.error();
+  TempTree tree(true);
+  const fs::path pcf = tree.shaders() / "penumbra" / "pcf.glsl";
+  const std::string good = testing::read_text(pcf);
+  const std::string line = "  return clamp(radius, 0, kPcfMaxRadius);";
+  const auto at = good.find(line);
+  ASSERT_NE(at, std::string::npos);
+  std::string bad = good;
+  bad.replace(at, line.size(), "  return clamp(radius, 0, kPcfMaxRadius)  // no semicolon");
+
+  const std::string cmd = "sh -c 'echo pid $$; exec env DISPLAY=" + x.display() +
+                          " PENUMBRA_VALIDATION=1 " + PENUMBRA_VIEW_EXE + " --shader-dir " +
+                          tree.shaders().string() + " --size 160x120' 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  pid_t pid = -1;
+  std::atomic<bool> done{false};
+  std::thread guard([&] {  // never hang: stop the viewer after 30 s
+    for (int i = 0; i < 300 && !done; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (!done && pid > 0) kill(pid, SIGKILL);
+  });
+  std::string output, shown, cleared;
+  char buf[1024];
+  int stage = 0;  // 0: starting, 1: broken, 2: fixed, 3: stopped
+  while (fgets(buf, sizeof buf, p)) {
+    const std::string l = buf;
+    output += l;
+    if (l.rfind("pid ", 0) == 0) pid = static_cast<pid_t>(std::stol(l.substr(4)));
+    if (stage == 0 && l.find("[window] 160x120, watching") != std::string::npos) {
+      testing::atomic_save(pcf, bad);
+      stage = 1;
+    } else if (stage == 1 && l.find("[window] title shows the reload error") != std::string::npos) {
+      shown = l;
+      testing::atomic_save(pcf, good);
+      stage = 2;
+    } else if (stage == 2 && l.find("[window] title clear") != std::string::npos) {
+      cleared = l;
+      kill(pid, SIGTERM);
+      stage = 3;
+    }
+  }
+  const int status = pclose(p);
+  done = true;
+  guard.join();
+  EXPECT_EQ(stage, 3) << output;
+  EXPECT_EQ(status, 0) << output;
+  EXPECT_THAT(shown, HasSubstr("RELOAD ERROR: "));
+  EXPECT_THAT(shown, HasSubstr("pcf.glsl:"));
+  EXPECT_THAT(cleared, Not(HasSubstr("RELOAD ERROR")));
+  EXPECT_THAT(output, HasSubstr("validation:  0 messages"));
+}
+
+TEST(WindowMode, FallsBackToHeadlessWithoutADisplay) {
+  TempTree tree(false);
+  const Result r = shell(std::string("env -u DISPLAY -u WAYLAND_DISPLAY ") + PENUMBRA_VIEW_EXE +
+                         " --frames 1 --size 64x48 --view lit --out " + tree.root().string());
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("rendering headless: no display"));
+  EXPECT_TRUE(fs::exists(tree.root() / "lit.png")) << r.output;
+}
+
+}  // namespace
+}  // namespace penumbra
