@@ -377,6 +377,34 @@ struct Renderer::Impl {
     build_tonemap();
   }
 
+  // The depth-only caster pipelines of a light: opaque casters with no fragment stage, and (when
+  // the scene has masked materials) alpha-tested casters. Dynamic depth bias on both.
+  void add_caster_pipelines(const std::string& name, const std::string& vertex,
+                            const gpu::PipelineLayout& layout,
+                            std::unique_ptr<gpu::GraphicsPipeline>& opaque,
+                            std::unique_ptr<gpu::GraphicsPipeline>& masked_out, bool depth_clamp) {
+    for (bool masked : {false, true}) {
+      if (masked && !req.masked_materials) continue;
+      std::vector<Source> sources{{vertex, {}}};
+      if (masked) sources.push_back({"render/shadow_masked.frag", {}});
+      auto& target = masked ? masked_out : opaque;
+      add_pipeline(name + (masked ? "-masked" : "-opaque (no fragment stage)"), sources,
+                   [this, masked, depth_clamp, &layout, &target](const Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     if (masked) d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.depth_format = kDepthFormat;
+                     d.depth_compare =
+                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
+                     d.depth_bias = true;
+                     d.depth_clamp = depth_clamp;
+                     d.cull = VK_CULL_MODE_NONE;
+                     target = std::make_unique<gpu::GraphicsPipeline>(ctx, d, layout);
+                   });
+    }
+  }
+
   void build_sun() {
     const uint32_t res = scene.shadows.resolution;
     const uint32_t n = req.cascades;
@@ -389,26 +417,8 @@ struct Renderer::Impl {
         std::vector<std::vector<gpu::BindingDesc>>{
             {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
         uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
-    for (bool masked : {false, true}) {
-      if (masked && !req.masked_materials) continue;
-      std::vector<Source> sources{{"render/shadow_depth.vert", {}}};
-      if (masked) sources.push_back({"render/shadow_masked.frag", {}});
-      add_pipeline(std::string("sun-shadow-") + (masked ? "masked" : "opaque (no fragment stage)"),
-                   sources, [this, masked](const Spirvs& spirv) {
-                     gpu::GraphicsPipelineDesc d;
-                     d.vertex_spirv = spirv[0];
-                     if (masked) d.fragment_spirv = spirv[1];
-                     d.vertex_input = vertex_input();
-                     d.depth_format = kDepthFormat;
-                     d.depth_compare =
-                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
-                     d.depth_bias = true;
-                     d.depth_clamp = ctx.info().depth_clamp;
-                     d.cull = VK_CULL_MODE_NONE;
-                     (masked ? shadow_masked : shadow_opaque) =
-                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *shadow_layout);
-                   });
-    }
+    add_caster_pipelines("sun-shadow", "render/shadow_depth.vert", *shadow_layout, shadow_opaque,
+                         shadow_masked, ctx.info().depth_clamp);
     shadow_set = pool.allocate(shadow_layout->set_layout(0));
     gpu::DescriptorWriter()
         .buffer(0, shadow_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
@@ -460,25 +470,8 @@ struct Renderer::Impl {
         std::vector<std::vector<gpu::BindingDesc>>{
             {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
         uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
-    for (bool masked : {false, true}) {
-      if (masked && !req.masked_materials) continue;
-      std::vector<Source> sources{{"render/spot_depth.vert", {}}};
-      if (masked) sources.push_back({"render/shadow_masked.frag", {}});
-      add_pipeline(std::string("spot-shadow-") + (masked ? "masked" : "opaque"), sources,
-                   [this, masked](const Spirvs& spirv) {
-                     gpu::GraphicsPipelineDesc d;
-                     d.vertex_spirv = spirv[0];
-                     if (masked) d.fragment_spirv = spirv[1];
-                     d.vertex_input = vertex_input();
-                     d.depth_format = kDepthFormat;
-                     d.depth_compare =
-                         reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
-                     d.depth_bias = true;
-                     d.cull = VK_CULL_MODE_NONE;
-                     (masked ? spot_masked : spot_opaque) =
-                         std::make_unique<gpu::GraphicsPipeline>(ctx, d, *spot_layout);
-                   });
-    }
+    add_caster_pipelines("spot-shadow", "render/spot_depth.vert", *spot_layout, spot_opaque,
+                         spot_masked, false);
     spot_set = pool.allocate(spot_layout->set_layout(0));
     gpu::DescriptorWriter()
         .buffer(0, spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
