@@ -21,6 +21,9 @@
 #ifndef PENUMBRA_POINT_SHADOWS
 #define PENUMBRA_POINT_SHADOWS 0
 #endif
+#ifndef PENUMBRA_VISIBILITY_OUTPUT
+#define PENUMBRA_VISIBILITY_OUTPUT 0
+#endif
 
 layout(location = 0) in vec3 in_position;
 layout(location = 1) in vec3 in_normal;
@@ -44,6 +47,13 @@ layout(set = 0, binding = 6) uniform samplerCubeArrayShadow point_maps;  // one 
 
 layout(push_constant) uniform Push { DrawPush draw; };
 layout(location = 0) out vec4 out_color;
+#if PENUMBRA_VISIBILITY_OUTPUT
+// Each light's visibility exactly as the lighting below uses it, for the ray-traced reference:
+// slot 0 the sun, 1 + i spot i, 1 + kMaxSpotLights + i point i; slots 0-3 in out_visibility0,
+// 4-7 in out_visibility1 (RendererOptions::visibility_output).
+layout(location = 1) out vec4 out_visibility0;
+layout(location = 2) out vec4 out_visibility1;
+#endif
 
 float spot_cone(LightGpu l, vec3 to_light_unit) {
   float c = dot(-to_light_unit, l.direction_cos.xyz);
@@ -64,6 +74,7 @@ void main() {
   vec3 brdf = albedo * kInvPi;  // Lambert; light intensities are irradiance
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec3 color = albedo * frame.ambient.rgb * (0.6 + 0.4 * n.y);
+  float slot_visibility[8] = float[8](1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
 
   if (frame.sun_direction.w > 0.0) {
     vec3 l = frame.sun_direction.xyz;
@@ -74,6 +85,7 @@ void main() {
 #if PENUMBRA_CONTACT
     visibility *= texelFetch(contact_mask, pixel, 0).r;
 #endif
+    slot_visibility[0] = visibility;
     color += brdf * frame.sun_color.rgb * frame.sun_direction.w * max(dot(n, l), 0.0) * visibility;
   }
 
@@ -95,6 +107,7 @@ void main() {
       visibility = pcf_grid_array(spot_maps, coord, map, 1, vec2(1.0 / float(s.info.x)));
     }
 #endif
+    slot_visibility[1 + i] = visibility;
     color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
              spot_cone(light, l) * range_falloff(dist, light.position_range.w) * visibility;
   }
@@ -120,8 +133,15 @@ void main() {
       visibility = texture(point_maps, vec4(v, float(map)), ref);
     }
 #endif
+    slot_visibility[1 + kMaxSpotLights + i] = visibility;
     color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
              range_falloff(dist, light.position_range.w) * visibility;
   }
   out_color = vec4(color, 1.0);
+#if PENUMBRA_VISIBILITY_OUTPUT
+  out_visibility0 = vec4(slot_visibility[0], slot_visibility[1], slot_visibility[2],
+                         slot_visibility[3]);
+  out_visibility1 = vec4(slot_visibility[4], slot_visibility[5], slot_visibility[6],
+                         slot_visibility[7]);
+#endif
 }

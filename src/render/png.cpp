@@ -1,4 +1,6 @@
+#include <filesystem>
 #include <penumbra/core/error.hpp>
+#include <system_error>
 #include <penumbra/render/renderer.hpp>
 
 #if defined(__GNUC__)
@@ -24,9 +26,20 @@ void write_png(const std::filesystem::path& path, uint32_t width, uint32_t heigh
                 " bytes for a " + std::to_string(width) + "x" + std::to_string(height) +
                 " RGBA8 image (expected " + std::to_string(size_t{width} * height * 4) + ")");
   }
-  if (stbi_write_png(path.string().c_str(), int(width), int(height), 4, rgba.data(),
+  // Written next to the target, then renamed over it: a reader never sees half a PNG.
+  const std::filesystem::path tmp = path.string() + ".tmp";
+  if (stbi_write_png(tmp.string().c_str(), int(width), int(height), 4, rgba.data(),
                      int(width * 4)) == 0) {
+    std::error_code ec;
+    std::filesystem::remove(tmp, ec);
     throw Error("write_png: cannot write " + path.string());
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::filesystem::remove(tmp, ec);
+    throw Error("write_png: cannot move " + tmp.string() + " to " + path.string() + ": " +
+                ec.message());
   }
 }
 

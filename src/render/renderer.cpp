@@ -30,6 +30,7 @@ constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 constexpr VkFormat kInfoFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
 constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
+constexpr VkFormat kVisibilityFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 
 struct GpuMesh {
   gpu::Buffer vertices, indices;
@@ -89,6 +90,8 @@ std::string format_name(VkFormat f) {
       return "RGBA8";
     case VK_FORMAT_R32_SFLOAT:
       return "R32F";
+    case VK_FORMAT_R32G32B32A32_SFLOAT:
+      return "RGBA32F";
     default:
       return std::to_string(int(f));
   }
@@ -134,6 +137,7 @@ struct Renderer::Impl {
   fs::path shader_dir;
   uint32_t width = 0, height = 0;
   bool reverse_z = true;
+  bool visibility_output = false;
   scene::Scene::Requirements req{};
   BuildReport report;
   std::vector<PassTiming> timings;
@@ -149,6 +153,7 @@ struct Renderer::Impl {
 
   // Images.
   gpu::Image depth, normal, hdr, info, ldr;
+  gpu::Image visibility[2];  // only with visibility_output
   gpu::Image sun_map;
   std::vector<gpu::Image> spot_maps;
   std::vector<gpu::Image> point_maps;
@@ -182,6 +187,7 @@ struct Renderer::Impl {
         width(o.width ? o.width : s.render.width),
         height(o.height ? o.height : s.render.height),
         reverse_z(s.shadows.reverse_z),
+        visibility_output(o.visibility_output),
         compiler(shader::CompileOptions{{shader_dir}, {}, false}),
         pool(c, 16),
         timestamps(c, 32),
@@ -328,6 +334,11 @@ struct Renderer::Impl {
     ldr = make_image("ldr", gpu::ImageKind::image_2d, kLdrFormat, width, height, 1,
                      VK_IMAGE_USAGE_STORAGE_BIT);
     readback = gpu::Buffer(ctx, size_t{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
+    if (visibility_output)
+      for (int i = 0; i < 2; ++i)
+        visibility[i] = make_image("visibility" + std::to_string(i), gpu::ImageKind::image_2d,
+                                   kVisibilityFormat, width, height, 1,
+                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT);
 
     nearest = gpu::Sampler(ctx, gpu::SamplerDesc{});
     gpu::SamplerDesc cmp;
@@ -597,7 +608,8 @@ struct Renderer::Impl {
     }
     forward_layout = std::make_unique<gpu::PipelineLayout>(
         ctx, std::vector<std::vector<gpu::BindingDesc>>{b}, uint32_t(sizeof(DrawPush)), all);
-    const auto defines = light_defines();
+    auto defines = light_defines();
+    if (visibility_output) defines.push_back({"PENUMBRA_VISIBILITY_OUTPUT", "1"});
     for (bool masked : {false, true}) {
       if (masked && !req.masked_materials) continue;
       add_pipeline(variant(std::string("forward-") + (masked ? "masked" : "opaque"), defines),
@@ -608,6 +620,8 @@ struct Renderer::Impl {
                      d.fragment_spirv = spirv[1];
                      d.vertex_input = vertex_input();
                      d.color_formats = {kHdrFormat};
+                     if (visibility_output)
+                       d.color_formats.insert(d.color_formats.end(), 2, kVisibilityFormat);
                      d.depth_format = kDepthFormat;
                      d.depth_write = false;
                      // The prepass wrote the nearest surface; "not behind it" rather than EQUAL
@@ -850,15 +864,19 @@ struct Renderer::Impl {
 
   // Begins dynamic rendering into an optional colour target (cleared to `clear`) and a depth
   // target (cleared to far, or loaded), with a full-size viewport and scissor.
+  // Extra colour targets (cleared to 0) follow the first.
   void begin_rendering(VkCommandBuffer cmd, uint32_t w, uint32_t h, VkImageView color,
                        VkClearColorValue clear, VkImageView depth_view, VkImageLayout depth_layout,
-                       bool clear_depth) {
-    VkRenderingAttachmentInfo ca{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
-    ca.imageView = color;
-    ca.imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
-    ca.loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
-    ca.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
-    ca.clearValue.color = clear;
+                       bool clear_depth, const std::vector<VkImageView>& extra_colors = {}) {
+    std::vector<VkRenderingAttachmentInfo> cas(1 + extra_colors.size(),
+                                               {VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO});
+    for (size_t i = 0; i < cas.size(); ++i) {
+      cas[i].imageView = i == 0 ? color : extra_colors[i - 1];
+      cas[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+      cas[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+      cas[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      cas[i].clearValue.color = i == 0 ? clear : VkClearColorValue{};
+    }
     VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
     da.imageView = depth_view;
     da.imageLayout = depth_layout;
@@ -868,8 +886,8 @@ struct Renderer::Impl {
     VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
     ri.renderArea = {{0, 0}, {w, h}};
     ri.layerCount = 1;
-    ri.colorAttachmentCount = color != VK_NULL_HANDLE ? 1 : 0;
-    ri.pColorAttachments = color != VK_NULL_HANDLE ? &ca : nullptr;
+    ri.colorAttachmentCount = color != VK_NULL_HANDLE ? uint32_t(cas.size()) : 0;
+    ri.pColorAttachments = color != VK_NULL_HANDLE ? cas.data() : nullptr;
     ri.pDepthAttachment = &da;
     vkCmdBeginRendering(cmd, &ri);
     viewport(cmd, w, h);
@@ -936,10 +954,16 @@ struct Renderer::Impl {
     // Forward.
     depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
     hdr.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+    std::vector<VkImageView> visibility_views;
+    if (visibility_output)
+      for (auto& v : visibility) {
+        v.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+        visibility_views.push_back(v.view());
+      }
     const glm::vec3 sky =
         scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
     begin_rendering(cmd, width, height, hdr.view(), {{sky.r, sky.g, sky.b, 1.0f}}, depth.view(),
-                    VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false);
+                    VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false, visibility_views);
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, forward_layout->handle(), 0, 1,
                             &forward_set, 0, nullptr);
     draw_meshes(cmd, *forward_layout, forward_opaque->handle(),
@@ -1026,6 +1050,43 @@ std::vector<float> Renderer::read_shadow_info() {
   std::vector<float> out(size_t{impl_->width} * impl_->height * 4);
   const auto* h = reinterpret_cast<const uint16_t*>(bytes.data());
   for (size_t i = 0; i < out.size(); ++i) out[i] = glm::unpackHalf1x16(h[i]);
+  return out;
+}
+
+GBuffer Renderer::read_gbuffer() {
+  auto& m = *impl_;
+  GBuffer g;
+  g.width = m.width;
+  g.height = m.height;
+  const size_t n = size_t{m.width} * m.height;
+  const auto depth_bytes = m.depth.download();
+  g.depth.resize(n);
+  std::memcpy(g.depth.data(), depth_bytes.data(), n * sizeof(float));
+  const auto normal_bytes = m.normal.download();
+  const auto* h = reinterpret_cast<const uint16_t*>(normal_bytes.data());
+  g.normal_view.resize(n);
+  for (size_t i = 0; i < n; ++i)
+    g.normal_view[i] = glm::vec4(glm::unpackHalf1x16(h[4 * i]), glm::unpackHalf1x16(h[4 * i + 1]),
+                                 glm::unpackHalf1x16(h[4 * i + 2]),
+                                 glm::unpackHalf1x16(h[4 * i + 3]));
+  g.camera.view = glm::dmat4(m.frame.view);
+  g.camera.proj = glm::dmat4(m.frame.proj);
+  g.camera.origin = m.origin;
+  g.camera.reverse_z = m.reverse_z;
+  return g;
+}
+
+std::vector<float> Renderer::read_visibility(uint32_t slot) {
+  auto& m = *impl_;
+  if (!m.visibility_output)
+    throw Error("Renderer::read_visibility: the renderer was built without visibility_output");
+  if (slot >= kVisibilitySlots)
+    throw Error("Renderer::read_visibility: slot " + std::to_string(slot) + " is not in [0, " +
+                std::to_string(kVisibilitySlots) + ")");
+  const auto bytes = m.visibility[slot / 4].download();
+  const auto* f = reinterpret_cast<const float*>(bytes.data());
+  std::vector<float> out(size_t{m.width} * m.height);
+  for (size_t i = 0; i < out.size(); ++i) out[i] = f[4 * i + slot % 4];
   return out;
 }
 

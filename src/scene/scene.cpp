@@ -1,6 +1,7 @@
-// Scene queries (bounds, requirements) and finding shipped scenes by name.
+// Scene queries (bounds, requirements), the alpha masks, and finding shipped scenes by name.
 
 #include <algorithm>
+#include <cmath>
 #include <penumbra/core/error.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
@@ -32,6 +33,29 @@ std::vector<fs::path> scene_dirs() {
 }
 
 }  // namespace
+
+float procedural_mask(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale) {
+  const glm::vec2 p = uv * scale;
+  const auto fract = [](float x) { return x - std::floor(x); };
+  switch (pattern) {
+    case MaskPattern::stripes:
+      return fract(p.x) < 0.5f ? 1.0f : 0.0f;
+    case MaskPattern::checker:
+      return ((int(std::floor(p.x)) + int(std::floor(p.y))) & 1) == 0 ? 1.0f : 0.0f;
+    case MaskPattern::circles: {
+      const glm::vec2 c(fract(p.x) - 0.5f, fract(p.y) - 0.5f);
+      return std::sqrt(c.x * c.x + c.y * c.y) > 0.3f ? 1.0f : 0.0f;
+    }
+    case MaskPattern::none:
+    case MaskPattern::texture:
+      break;
+  }
+  return 1.0f;
+}
+
+bool alpha_test_discards(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale, float cutoff) {
+  return procedural_mask(uv, pattern, scale) < cutoff;
+}
 
 Bounds Scene::world_bounds() const {
   return instance_bounds(*this, false);

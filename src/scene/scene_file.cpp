@@ -499,7 +499,7 @@ void read_sun(const Reader& r, Sun& sun) {
 
 void read_spot(const Reader& r, SpotLight& spot) {
   r.check_keys({"position", "direction", "target", "color", "intensity", "outer_angle",
-                "inner_angle", "range", "shadows", "resolution"});
+                "inner_angle", "range", "radius", "shadows", "resolution"});
   spot.position = r.required_vec3("position");
   if (r.has("direction") && r.has("target")) {
     r.fail_key("target", "give either 'direction' or 'target', not both");
@@ -526,16 +526,18 @@ void read_spot(const Reader& r, SpotLight& spot) {
                   " must not exceed outer_angle = " + format_number(spot.outer_degrees));
   }
   spot.range = r.numberf("range", spot.range, kPositive);
+  spot.radius = r.numberf("radius", spot.radius, kNonNegative);
   spot.shadows = r.boolean("shadows", spot.shadows);
   spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
 }
 
 void read_point(const Reader& r, PointLight& point) {
-  r.check_keys({"position", "color", "intensity", "range", "shadows", "resolution"});
+  r.check_keys({"position", "color", "intensity", "range", "radius", "shadows", "resolution"});
   point.position = r.required_vec3("position");
   point.color = r.vec3("color", point.color, kNonNegative);
   point.intensity = r.numberf("intensity", point.intensity, kNonNegative);
   point.range = r.numberf("range", point.range, kPositive);
+  point.radius = r.numberf("radius", point.radius, kNonNegative);
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
 }

@@ -21,6 +21,38 @@ struct RendererOptions {
   // Where the stage shaders (render/…) and the library (penumbra/…) live.
   std::filesystem::path shader_dir;  // empty: the repo's shaders/ (compiled in)
   uint32_t width = 0, height = 0;    // 0: the scene's [render] size
+  // The forward pass also writes each light's visibility as the lighting uses it (two RGBA32F
+  // targets, read_visibility()): what the ray-traced reference compares with. Off by default:
+  // a frame that nobody measures does not pay for it.
+  bool visibility_output = false;
+};
+
+// Slots of read_visibility(): the sun, then the spot lights, then the point lights.
+inline constexpr uint32_t kSunVisibilitySlot = 0;
+inline constexpr uint32_t spot_visibility_slot(uint32_t spot) {
+  return 1 + spot;
+}
+inline constexpr uint32_t point_visibility_slot(uint32_t point) {
+  return 1 + kMaxSpotLights + point;
+}
+inline constexpr uint32_t kVisibilitySlots = 8;
+static_assert(1 + kMaxSpotLights + kMaxPointLights <= kVisibilitySlots);
+
+// The camera of the last frame as the GPU used it: the float matrices widened to double, and
+// the render origin (the world position that camera-relative positions are relative to).
+struct FrameCamera {
+  glm::dmat4 view{1.0}, proj{1.0};
+  glm::dvec3 origin{0.0};
+  bool reverse_z = true;
+};
+
+// The last frame's depth + normal prepass, read back: depth as stored (D32), view-space unit
+// normals in rgb with 1 in alpha for geometry (0: sky), row-major, top row first.
+struct GBuffer {
+  uint32_t width = 0, height = 0;
+  std::vector<float> depth;
+  std::vector<glm::vec4> normal_view;
+  FrameCamera camera;
 };
 
 struct PassTiming {
@@ -60,6 +92,11 @@ class Renderer {
   std::vector<uint8_t> read_rgba8();
   // Raw shadow info of the last frame (visibility, cascade, penumbra, density), RGBA float.
   std::vector<float> read_shadow_info();
+  // The last frame's G-buffer (depth + normals) and camera.
+  GBuffer read_gbuffer();
+  // One slot of the last frame's per-light visibility (width × height floats; 1 where the
+  // slot's light does not exist). Throws unless RendererOptions::visibility_output was set.
+  std::vector<float> read_visibility(uint32_t slot);
   // Depth texels of one sun cascade's shadow map (resolution² floats); empty without a sun.
   std::vector<float> read_sun_shadow_map(uint32_t cascade);
 

@@ -23,6 +23,14 @@ enum class AlphaMode { opaque, masked };
 // out); checker: a checkerboard (every other cell cut out); circles: a grid of round holes.
 enum class MaskPattern { none, texture, stripes, checker, circles };
 
+// The masks of shaders/penumbra/material.glsl, operation for operation in float (the ray-traced
+// reference evaluates masked occluders with these; a GPU test checks they agree): coverage in
+// [0, 1] of `pattern` at uv * scale. MaskPattern::texture gives 1 here as in the shaders, which
+// do not sample mask textures yet.
+float procedural_mask(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale);
+// True where the alpha test cuts the surface out (coverage < cutoff).
+bool alpha_test_discards(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale, float cutoff);
+
 struct Material {
   std::string name;
   glm::vec3 albedo{0.8f};
@@ -66,6 +74,7 @@ struct SpotLight {
   float outer_degrees = 30.0f;  // half-angle of the cone, in (0, 90)
   float inner_degrees = 25.0f;  // full intensity inside, in [0, outer]
   float range = 20.0f;          // > 0; the light (and its shadow map's far plane) ends here
+  float radius = 0.0f;          // >= 0: the emitting sphere's radius; 0 = a point (hard shadows)
   bool shadows = true;
   std::uint32_t resolution = 1024;
 };
@@ -75,6 +84,7 @@ struct PointLight {
   glm::vec3 color{1.0f};
   float intensity = 20.0f;
   float range = 20.0f;
+  float radius = 0.0f;  // >= 0: the emitting sphere's radius; 0 = a point (hard shadows)
   bool shadows = true;
   std::uint32_t resolution = 512;  // of each cube face
 };

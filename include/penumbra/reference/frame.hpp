@@ -1,0 +1,48 @@
+#pragma once
+
+// A rendered frame measured against the reference: the renderer's G-buffer gives the
+// receivers, its visibility output the GPU's V per light, the tracer R; metrics per light.
+
+#include <filesystem>
+#include <optional>
+#include <penumbra/reference/metrics.hpp>
+#include <penumbra/reference/reference.hpp>
+#include <penumbra/render/renderer.hpp>
+
+namespace penumbra::reference {
+
+struct LightMeasurement {
+  LightRef light;
+  AreaLight area;
+  Visibility reference;
+  std::vector<float> gpu;  // the GPU's visibility of this light, per pixel
+  std::vector<ReceiverClass> classes;
+  Metrics metrics;
+};
+
+struct FrameMeasurement {
+  uint32_t width = 0, height = 0;
+  std::vector<uint8_t> lit;  // the frame, RGBA8
+  Receivers receivers;
+  size_t triangles = 0;  // in the BVH
+  std::vector<LightMeasurement> lights;
+};
+
+struct MeasureOptions {
+  TraceOptions trace;
+  MetricsOptions metrics;
+  std::optional<std::filesystem::path> cache_dir;  // nullopt: no cache
+  std::vector<std::string> lights;                 // names ("sun", "spot0"); empty: all
+};
+
+// Measures the renderer's last frame (render() first). The renderer must have been built with
+// RendererOptions::visibility_output; throws penumbra::Error otherwise or for an unknown light.
+FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions& options);
+
+// Writes lit.png, and per light reference, visibility (the GPU's) and error PNGs (suffixed
+// -<light> when the scene has several lights) and metrics.json into dir; returns the paths.
+std::vector<std::filesystem::path> write_measurement(const FrameMeasurement& m,
+                                                     const std::filesystem::path& dir,
+                                                     const std::string& json_header);
+
+}  // namespace penumbra::reference

@@ -1,0 +1,100 @@
+// Measuring a rendered frame against the reference, and writing what people look at.
+#include <algorithm>
+#include <fstream>
+#include <penumbra/core/error.hpp>
+#include <penumbra/reference/frame.hpp>
+#include <system_error>
+
+namespace penumbra::reference {
+namespace fs = std::filesystem;
+
+FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions& options) {
+  const scene::Scene& scene = renderer.scene();
+  FrameMeasurement m;
+  m.width = renderer.width();
+  m.height = renderer.height();
+  m.lit = renderer.read_rgba8();
+  const render::GBuffer g = renderer.read_gbuffer();
+  m.receivers = receivers_from_gbuffer(g.width, g.height, g.depth, g.normal_view, g.camera.view,
+                                       g.camera.proj, g.camera.origin);
+  std::vector<LightRef> lights;
+  for (const auto& l : scene_lights(scene))
+    if (options.lights.empty() || std::find(options.lights.begin(), options.lights.end(),
+                                            l.name()) != options.lights.end())
+      lights.push_back(l);
+  for (const auto& name : options.lights) {
+    const auto all = scene_lights(scene);
+    if (std::none_of(all.begin(), all.end(), [&](const LightRef& l) { return l.name() == name; })) {
+      std::string have;
+      for (const auto& l : all) have += (have.empty() ? "" : ", ") + l.name();
+      throw Error("reference: scene '" + scene.name + "' has no light '" + name + "' (it has: " +
+                  (have.empty() ? "none" : have) + ")");
+    }
+  }
+  const Tracer tracer(scene, g.camera.origin);
+  m.triangles = tracer.triangle_count();
+  for (const auto& l : lights) {
+    if ((l.kind == LightKind::spot && l.index >= render::kMaxSpotLights) ||
+        (l.kind == LightKind::point && l.index >= render::kMaxPointLights))
+      continue;  // the renderer draws at most kMax… lights of a kind
+    LightMeasurement lm;
+    lm.light = l;
+    lm.area = area_light(scene, l);
+    TraceOptions t = options.trace;
+    t.progress_label = "reference " + l.name();
+    lm.reference = options.cache_dir
+                       ? trace_cached(tracer, m.receivers, lm.area, t, *options.cache_dir)
+                       : tracer.trace(m.receivers, lm.area, t);
+    const uint32_t slot = l.kind == LightKind::sun    ? render::kSunVisibilitySlot
+                          : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
+                                                      : render::point_visibility_slot(l.index);
+    lm.gpu = renderer.read_visibility(slot);
+    lm.classes = classify_receivers(m.receivers, scene, l);
+    lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics);
+    lm.metrics.light = l.name();
+    m.lights.push_back(std::move(lm));
+  }
+  return m;
+}
+
+std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::path& dir,
+                                        const std::string& json_header) {
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  if (ec) throw Error("cannot create " + dir.string() + ": " + ec.message());
+  std::vector<fs::path> written;
+  auto png = [&](const std::string& name, const std::vector<uint8_t>& rgba) {
+    render::write_png(dir / name, m.width, m.height, rgba);
+    written.push_back(dir / name);
+  };
+  png("lit.png", m.lit);
+  const bool suffix = m.lights.size() > 1;
+  std::string lights_json;
+  for (const auto& l : m.lights) {
+    const std::string s = suffix ? "-" + l.light.name() : "";
+    png("reference" + s + ".png", visibility_image(l.reference.value, l.classes, m.lit));
+    png("visibility" + s + ".png", visibility_image(l.gpu, l.classes, m.lit));
+    png("error" + s + ".png", error_image(l.gpu, l.reference.value, l.classes, m.lit));
+    std::string j = l.metrics.to_json();
+    j.pop_back();  // add the tracer's numbers to the light's object
+    j += ", \"rays\": " + std::to_string(l.reference.rays) +
+         ", \"trace_seconds\": " + std::to_string(l.reference.seconds) +
+         ", \"from_cache\": " + (l.reference.from_cache ? "true" : "false") + "}";
+    lights_json += (lights_json.empty() ? "\n    " : ",\n    ") + j;
+  }
+  const fs::path json = dir / "metrics.json", tmp = dir / "metrics.json.tmp";
+  {
+    std::ofstream out(tmp, std::ios::trunc);
+    out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
+        << "\"width\": " << m.width << ", \"height\": " << m.height
+        << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json << "\n  ]\n}\n";
+    out.flush();
+    if (!out) throw Error("cannot write " + tmp.string());
+  }
+  fs::rename(tmp, json, ec);
+  if (ec) throw Error("cannot move " + tmp.string() + " to " + json.string() + ": " + ec.message());
+  written.push_back(json);
+  return written;
+}
+
+}  // namespace penumbra::reference

@@ -1,0 +1,473 @@
+// The ray tracer of the reference: the scene's casters in an Embree 3 BVH, area-light sampling
+// per receiver with an adaptive early stop, on a pool of threads.
+#include <embree3/rtcore.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <limits>
+#include <penumbra/core/error.hpp>
+#include <penumbra/reference/reference.hpp>
+#include <thread>
+
+#include "hash.hpp"
+
+namespace penumbra::reference {
+namespace {
+
+bool finite(const glm::dvec3& v) {
+  return std::isfinite(v.x) && std::isfinite(v.y) && std::isfinite(v.z);
+}
+
+// An orthonormal basis around unit w (Duff et al. 2017, branchless).
+void basis(const glm::dvec3& w, glm::dvec3& e1, glm::dvec3& e2) {
+  const double sign = std::copysign(1.0, w.z);
+  const double a = -1.0 / (sign + w.z);
+  const double b = w.x * w.y * a;
+  e1 = {1.0 + sign * w.x * w.x * a, sign * b, -sign * w.x};
+  e2 = {b, sign + w.y * w.y * a, -w.y};
+}
+
+struct MaskedGeometry {
+  std::vector<glm::vec2> uv;
+  std::vector<uint32_t> indices;
+  scene::MaskPattern pattern = scene::MaskPattern::none;
+  glm::vec2 scale{1.0f};
+  float cutoff = 0.5f;
+};
+
+// Embree's occlusion filter for masked materials: a hit where the mask cuts the surface out
+// is rejected and the ray goes on.
+void mask_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* g = static_cast<const MaskedGeometry*>(args->geometryUserPtr);
+  for (unsigned i = 0; i < args->N; ++i) {
+    if (args->valid[i] == 0) continue;
+    const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
+    const glm::vec2 uv = (1.0f - u - v) * g->uv[g->indices[3 * prim]] +
+                         u * g->uv[g->indices[3 * prim + 1]] + v * g->uv[g->indices[3 * prim + 2]];
+    if (scene::alpha_test_discards(uv, g->pattern, g->scale, g->cutoff)) args->valid[i] = 0;
+  }
+}
+
+std::string embree_error(RTCDevice device) {
+  switch (rtcGetDeviceError(device)) {
+    case RTC_ERROR_NONE:
+      return "";
+    case RTC_ERROR_OUT_OF_MEMORY:
+      return "out of memory";
+    case RTC_ERROR_INVALID_ARGUMENT:
+      return "invalid argument";
+    case RTC_ERROR_INVALID_OPERATION:
+      return "invalid operation";
+    case RTC_ERROR_UNSUPPORTED_CPU:
+      return "unsupported CPU";
+    default:
+      return "unknown error";
+  }
+}
+
+}  // namespace
+
+std::string LightRef::name() const {
+  switch (kind) {
+    case LightKind::sun:
+      return "sun";
+    case LightKind::spot:
+      return "spot" + std::to_string(index);
+    case LightKind::point:
+      return "point" + std::to_string(index);
+  }
+  return "?";
+}
+
+std::vector<LightRef> scene_lights(const scene::Scene& scene) {
+  std::vector<LightRef> out;
+  if (scene.sun) out.push_back({LightKind::sun, 0});
+  for (uint32_t i = 0; i < scene.spots.size(); ++i) out.push_back({LightKind::spot, i});
+  for (uint32_t i = 0; i < scene.points.size(); ++i) out.push_back({LightKind::point, i});
+  return out;
+}
+
+bool AreaLight::hard() const {
+  return kind == LightKind::sun ? !(angular_radius > 0.0) : !(radius > 0.0);
+}
+
+AreaLight area_light(const scene::Scene& scene, const LightRef& light) {
+  AreaLight a;
+  a.kind = light.kind;
+  switch (light.kind) {
+    case LightKind::sun:
+      if (!scene.sun) throw Error("reference: scene '" + scene.name + "' has no sun");
+      a.direction_to_light = -glm::normalize(glm::dvec3(scene.sun->direction));
+      a.angular_radius = 0.5 * glm::radians(double(scene.sun->angular_diameter_degrees));
+      break;
+    case LightKind::spot:
+      if (light.index >= scene.spots.size())
+        throw Error("reference: scene '" + scene.name + "' has no " + light.name());
+      a.position = glm::dvec3(scene.spots[light.index].position);
+      a.radius = scene.spots[light.index].radius;
+      break;
+    case LightKind::point:
+      if (light.index >= scene.points.size())
+        throw Error("reference: scene '" + scene.name + "' has no " + light.name());
+      a.position = glm::dvec3(scene.points[light.index].position);
+      a.radius = scene.points[light.index].radius;
+      break;
+  }
+  return a;
+}
+
+double ray_offset(const glm::dvec3& p) {
+  const double m = std::max({std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+  return std::max(kRayOffsetMin, kRayOffsetRelative * m);
+}
+
+Receivers receivers_from_points(std::span<const glm::dvec3> world_points,
+                                std::span<const glm::dvec3> normals, glm::dvec3 origin) {
+  if (world_points.size() != normals.size())
+    throw Error("reference: " + std::to_string(world_points.size()) + " points but " +
+                std::to_string(normals.size()) + " normals");
+  Receivers r;
+  r.width = static_cast<uint32_t>(world_points.size());
+  r.height = 1;
+  r.origin = origin;
+  for (size_t i = 0; i < world_points.size(); ++i) {
+    const glm::dvec3 n = normals[i];
+    const double len = glm::length(n);
+    const bool ok = finite(world_points[i]) && finite(n) && len > 0.0;
+    r.position.push_back(world_points[i] - origin);
+    r.normal.push_back(ok ? n / len : glm::dvec3(0.0));
+    r.valid.push_back(ok ? 1 : 0);
+  }
+  return r;
+}
+
+Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<const float> depth,
+                                 std::span<const glm::vec4> normal_view, const glm::dmat4& view,
+                                 const glm::dmat4& proj, glm::dvec3 origin) {
+  const size_t n = size_t{width} * height;
+  if (depth.size() != n || normal_view.size() != n)
+    throw Error("reference: a " + std::to_string(width) + "x" + std::to_string(height) +
+                " G-buffer needs " + std::to_string(n) + " depth and normal texels (got " +
+                std::to_string(depth.size()) + " and " + std::to_string(normal_view.size()) + ")");
+  Receivers r;
+  r.width = width;
+  r.height = height;
+  r.origin = origin;
+  r.position.resize(n);
+  r.normal.resize(n);
+  r.valid.assign(n, 0);
+  const glm::dmat4 inv_view_proj = glm::inverse(proj * view);
+  const glm::dmat3 view_to_world = glm::transpose(glm::dmat3(view));  // view is a rotation
+  for (uint32_t y = 0; y < height; ++y)
+    for (uint32_t x = 0; x < width; ++x) {
+      const size_t i = size_t{y} * width + x;
+      const glm::vec4 nv = normal_view[i];
+      if (!(nv.w > 0.5f)) continue;  // sky
+      // Pixel centre in NDC: Vulkan x, y in [-1, 1] with +y down the image, z in [0, 1].
+      const glm::dvec4 ndc((x + 0.5) / width * 2.0 - 1.0, (y + 0.5) / height * 2.0 - 1.0,
+                           double(depth[i]), 1.0);
+      const glm::dvec4 h = inv_view_proj * ndc;
+      const glm::dvec3 p = glm::dvec3(h) / h.w;
+      glm::dvec3 normal = view_to_world * glm::dvec3(nv);
+      const double len = glm::length(normal);
+      if (!finite(p) || !(len > 0.0) || !std::isfinite(len)) continue;
+      r.position[i] = p;
+      r.normal[i] = normal / len;
+      r.valid[i] = 1;
+    }
+  return r;
+}
+
+struct Tracer::Impl {
+  RTCDevice device = nullptr;
+  RTCScene scene = nullptr;
+  glm::dvec3 origin{0.0};
+  size_t triangles = 0;
+  uint64_t hash = 0;
+  std::vector<std::unique_ptr<MaskedGeometry>> masked;
+
+  ~Impl() {
+    if (scene) rtcReleaseScene(scene);
+    if (device) rtcReleaseDevice(device);
+  }
+};
+
+Tracer::Tracer(const scene::Scene& s, glm::dvec3 origin) : impl_(std::make_unique<Impl>()) {
+  auto& m = *impl_;
+  m.origin = origin;
+  m.device = rtcNewDevice(nullptr);
+  if (!m.device) throw Error("reference: Embree could not create a device");
+  m.scene = rtcNewScene(m.device);
+  rtcSetSceneBuildQuality(m.scene, RTC_BUILD_QUALITY_HIGH);
+  detail::Hasher hash;
+  for (const auto& inst : s.instances) {
+    if (!inst.casts_shadows) continue;
+    const scene::Mesh& mesh = s.meshes.at(inst.mesh);
+    const scene::Material& mat = s.materials.at(inst.material);
+    if (mesh.vertices.empty() || mesh.indices.size() < 3) continue;
+    // The GPU's model matrix: the transform relative to the origin, in double, then float.
+    glm::dmat4 model = glm::dmat4(inst.transform);
+    model[3] -= glm::dvec4(origin, 0.0);
+    const glm::mat4 model_f = glm::mat4(model);
+    // Triangles with a non-finite corner are left out (the rasterizer draws nothing there).
+    std::vector<glm::vec3> positions(mesh.vertices.size());
+    for (size_t v = 0; v < positions.size(); ++v)
+      positions[v] = glm::vec3(model_f * glm::vec4(mesh.vertices[v].position, 1.0f));
+    std::vector<uint32_t> indices;
+    indices.reserve(mesh.indices.size());
+    for (size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+      bool ok = true;
+      for (int k = 0; k < 3; ++k) {
+        const uint32_t idx = mesh.indices[t + k];
+        if (idx >= positions.size()) {
+          ok = false;
+          break;
+        }
+        const glm::vec3 p = positions[idx];
+        ok = ok && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
+      }
+      if (ok) indices.insert(indices.end(), mesh.indices.begin() + long(t),
+                             mesh.indices.begin() + long(t) + 3);
+    }
+    if (indices.empty()) continue;
+    RTCGeometry g = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
+                                                           RTC_FORMAT_FLOAT3, sizeof(float) * 3,
+                                                           positions.size()));
+    auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(uint32_t) * 3, indices.size() / 3));
+    if (!vb || !ib) {
+      rtcReleaseGeometry(g);
+      throw Error("reference: Embree could not allocate the buffers of mesh '" + mesh.name +
+                  "': " + embree_error(m.device));
+    }
+    std::memcpy(vb, positions.data(), positions.size() * sizeof(glm::vec3));
+    std::memcpy(ib, indices.data(), indices.size() * sizeof(uint32_t));
+    hash.bytes(positions.data(), positions.size() * sizeof(glm::vec3));
+    hash.bytes(indices.data(), indices.size() * sizeof(uint32_t));
+    if (mat.alpha == scene::AlphaMode::masked) {
+      auto mg = std::make_unique<MaskedGeometry>();
+      mg->uv.reserve(mesh.vertices.size());
+      for (const auto& v : mesh.vertices) mg->uv.push_back(v.uv);
+      mg->indices = indices;
+      mg->pattern = mat.mask;
+      mg->scale = mat.mask_scale;
+      mg->cutoff = mat.alpha_cutoff;
+      hash.bytes(mg->uv.data(), mg->uv.size() * sizeof(glm::vec2));
+      hash.pod(int(mg->pattern));
+      hash.pod(mg->scale);
+      hash.pod(mg->cutoff);
+      rtcSetGeometryUserData(g, mg.get());
+      rtcSetGeometryOccludedFilterFunction(g, mask_filter);
+      m.masked.push_back(std::move(mg));
+    }
+    rtcCommitGeometry(g);
+    rtcAttachGeometry(m.scene, g);
+    rtcReleaseGeometry(g);
+    m.triangles += indices.size() / 3;
+  }
+  rtcCommitScene(m.scene);
+  if (const auto e = embree_error(m.device); !e.empty())
+    throw Error("reference: building the BVH of scene '" + s.name + "' failed: " + e);
+  hash.pod(origin);
+  m.hash = hash.h;
+}
+
+Tracer::~Tracer() = default;
+
+size_t Tracer::triangle_count() const {
+  return impl_->triangles;
+}
+glm::dvec3 Tracer::origin() const {
+  return impl_->origin;
+}
+uint64_t Tracer::geometry_hash() const {
+  return impl_->hash;
+}
+
+namespace {
+
+struct LightSampler {
+  AreaLight light;
+  glm::dvec3 centre_rel{0.0};  // spot / point: relative to the origin
+  glm::dvec3 e1{0.0}, e2{0.0};
+  double tan_radius = 0.0;
+
+  // Direction from p toward the centre of the light (unit) and the distance to the light (inf
+  // for the sun); false when p is inside a sphere light.
+  bool centre(const glm::dvec3& p, glm::dvec3& dir, double& dist) const {
+    if (light.kind == LightKind::sun) {
+      dir = light.direction_to_light;
+      dist = std::numeric_limits<double>::infinity();
+      return true;
+    }
+    const glm::dvec3 c = centre_rel - p;
+    dist = glm::length(c);
+    if (!(dist > light.radius) || !(dist > 0.0)) return false;
+    dir = c / dist;
+    return true;
+  }
+
+  // Sample u in [0, 1)² → direction and ray length.
+  void sample(glm::dvec2 u, const glm::dvec3& to_centre, double dist, glm::dvec3& dir,
+              double& tfar) const {
+    const glm::dvec2 d = concentric_disk(u);
+    if (light.kind == LightKind::sun) {
+      dir = glm::normalize(to_centre + tan_radius * (d.x * e1 + d.y * e2));
+      tfar = std::numeric_limits<double>::infinity();
+      return;
+    }
+    // Uniform in the solid angle of the sphere: the disk's radius² maps to 1 - cos θ.
+    glm::dvec3 b1, b2;
+    basis(to_centre, b1, b2);
+    const double sin_max = light.radius / dist;
+    const double one_minus_cos_max = sin_max * sin_max / (1.0 + std::sqrt(1.0 - sin_max * sin_max));
+    const double rho2 = d.x * d.x + d.y * d.y;
+    const double one_minus_cos = rho2 * one_minus_cos_max;
+    const double cos_t = 1.0 - one_minus_cos;
+    const double sin_t = std::sqrt(std::max(0.0, one_minus_cos * (2.0 - one_minus_cos)));
+    const double rho = std::sqrt(rho2);
+    const double cx = rho > 0.0 ? d.x / rho : 1.0, cy = rho > 0.0 ? d.y / rho : 0.0;
+    dir = cos_t * to_centre + sin_t * (cx * b1 + cy * b2);
+    // The near intersection with the sphere.
+    const double b = dist * cos_t;
+    const double disc = light.radius * light.radius - dist * dist * sin_t * sin_t;
+    tfar = b - std::sqrt(std::max(0.0, disc));
+  }
+};
+
+bool occluded(RTCScene scene, const glm::dvec3& org, const glm::dvec3& dir, double tfar) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  RTCRay ray{};
+  ray.org_x = float(org.x);
+  ray.org_y = float(org.y);
+  ray.org_z = float(org.z);
+  ray.dir_x = float(dir.x);
+  ray.dir_y = float(dir.y);
+  ray.dir_z = float(dir.z);
+  ray.tnear = 0.0f;
+  ray.tfar = std::isfinite(tfar) ? float(tfar) : std::numeric_limits<float>::infinity();
+  ray.mask = 0xffffffffu;
+  ray.flags = 0;
+  rtcOccluded1(scene, &context, &ray);
+  return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
+}
+
+void print_progress(const std::string& label, size_t done, size_t total, double elapsed) {
+  const double f = total ? double(done) / double(total) : 1.0;
+  const int width = 30;
+  const int filled = static_cast<int>(f * width);
+  const double eta = f > 0.0 ? elapsed * (1.0 - f) / f : 0.0;
+  std::fprintf(stderr, "\r%s [%.*s%*s] %5.1f%%  ETA %4.0f s ", label.c_str(), filled,
+               "##############################", width - filled, "", 100.0 * f, eta);
+  std::fflush(stderr);
+}
+
+}  // namespace
+
+Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
+                         const TraceOptions& options) const {
+  if (options.samples == 0) throw Error("reference: samples must be >= 1");
+  const auto start = std::chrono::steady_clock::now();
+  LightSampler ls;
+  ls.light = light;
+  if (light.kind == LightKind::sun) {
+    ls.light.direction_to_light = glm::normalize(light.direction_to_light);
+    if (!finite(ls.light.direction_to_light))
+      throw Error("reference: the sun's direction is not a usable vector");
+    basis(ls.light.direction_to_light, ls.e1, ls.e2);
+    ls.tan_radius = std::tan(light.angular_radius);
+  } else {
+    ls.centre_rel = light.position - impl_->origin;
+  }
+  const bool hard = light.hard();
+  const uint32_t max_samples = hard ? 1 : options.samples;
+  const uint32_t initial = std::clamp(options.initial_samples, 1u, max_samples);
+
+  const size_t n = receivers.size();
+  Visibility out;
+  out.value.assign(n, std::numeric_limits<float>::quiet_NaN());
+  out.std_error.assign(n, std::numeric_limits<float>::quiet_NaN());
+  out.samples.assign(n, 0);
+  std::atomic<uint64_t> rays{0};
+  std::atomic<size_t> next{0}, done{0};
+  constexpr size_t kChunk = 256;
+  RTCScene scene = impl_->scene;
+
+  auto work = [&] {
+    uint64_t local_rays = 0;
+    for (;;) {
+      const size_t begin = next.fetch_add(kChunk);
+      if (begin >= n) break;
+      const size_t end = std::min(n, begin + kChunk);
+      for (size_t i = begin; i < end; ++i) {
+        if (!receivers.valid[i]) continue;
+        const glm::dvec3 p = receivers.position[i];
+        glm::dvec3 to_centre;
+        double dist;
+        if (!ls.centre(p, to_centre, dist)) {  // inside the light: it is all visible
+          out.value[i] = 1.0f;
+          out.std_error[i] = 0.0f;
+          out.samples[i] = 1;
+          continue;
+        }
+        // Offset toward the light's side of the surface.
+        glm::dvec3 nrm = receivers.normal[i];
+        if (glm::dot(nrm, to_centre) < 0.0) nrm = -nrm;
+        const glm::dvec3 org = p + nrm * ray_offset(p);
+        uint32_t visible = 0, count = 0;
+        if (hard) {
+          visible = occluded(scene, org, to_centre, dist) ? 0 : 1;
+          count = 1;
+        } else {
+          const uint64_t seed = detail::mix64(options.seed ^ detail::mix64(i));
+          for (; count < max_samples; ++count) {
+            if (options.adaptive && count == initial && (visible == 0 || visible == count)) break;
+            glm::dvec3 dir;
+            double tfar;
+            ls.sample(sobol_owen(count, seed), to_centre, dist, dir, tfar);
+            if (!occluded(scene, org, dir, tfar)) ++visible;
+          }
+        }
+        local_rays += count;
+        const double pv = double(visible) / count;
+        out.value[i] = float(pv);
+        out.std_error[i] = hard ? 0.0f
+                                : float(std::sqrt(std::max(pv * (1.0 - pv), 1.0 / count) / count));
+        out.samples[i] = count;
+      }
+      done.fetch_add(end - begin);
+    }
+    rays.fetch_add(local_rays);
+  };
+
+  const uint32_t threads =
+      options.threads ? options.threads : std::max(1u, std::thread::hardware_concurrency());
+  const bool show = options.progress && isatty(STDERR_FILENO);
+  std::vector<std::thread> pool;
+  for (uint32_t t = 0; t < threads; ++t) pool.emplace_back(work);
+  if (show) {
+    while (done.load() < n) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      print_progress(options.progress_label, std::min(done.load(), n), n,
+                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+    }
+  }
+  for (auto& t : pool) t.join();
+  out.rays = rays.load();
+  out.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (show) {
+    print_progress(options.progress_label, n, n, out.seconds);
+    std::fprintf(stderr, "\n");
+  }
+  return out;
+}
+
+}  // namespace penumbra::reference
