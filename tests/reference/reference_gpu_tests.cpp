@@ -1,0 +1,273 @@
+// The reference against the GPU: the alpha mask it evaluates is the shaders' mask; with a hard
+// light and a fine shadow map it agrees with the rasterizer away from shadow edges; every
+// shipped scene measures to finite metrics and images; bad frames give defined results.
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <penumbra/core/error.hpp>
+#include <penumbra/reference/frame.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <penumbra/testing/generators.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
+
+namespace penumbra::reference {
+namespace {
+
+namespace fs = std::filesystem;
+using testing::GpuTest;
+
+class ReferenceGpu : public GpuTest {};
+
+// ---- the mask ---------------------------------------------------------------------------------
+// Distance (in pattern cells) from uv * scale to the pattern's nearest edge, in double.
+double edge_distance(glm::vec2 uv, scene::MaskPattern pattern, glm::vec2 scale) {
+  const double x = double(uv.x) * scale.x, y = double(uv.y) * scale.y;
+  const double fx = x - std::floor(x), fy = y - std::floor(y);
+  const auto to_int = [](double f) { return std::min(f, 1.0 - f); };
+  switch (pattern) {
+    case scene::MaskPattern::stripes:
+      return std::min(to_int(fx), std::abs(fx - 0.5));
+    case scene::MaskPattern::checker:
+      return std::min(to_int(fx), to_int(fy));
+    case scene::MaskPattern::circles:
+      return std::min({std::abs(std::hypot(fx - 0.5, fy - 0.5) - 0.3), to_int(fx), to_int(fy)});
+    default:
+      return 1.0;
+  }
+}
+
+TEST_F(ReferenceGpu, TheTracersMaskIsTheShadersMask) {
+  testing::ShaderFunction<float(glm::vec2, int32_t, glm::vec2)> mask("penumbra/material.glsl",
+                                                                      "procedural_mask");
+  testing::Rng rng(0x3A5C);
+  const std::vector<glm::vec2> scales{{1, 1}, {16, 1}, {16, 4}, {8, 12}, {400, 1}, {3.3f, 7.1f}};
+  std::vector<std::tuple<glm::vec2, int32_t, glm::vec2>> cases;
+  for (int i = 0; i < 30000; ++i) {
+    const glm::vec2 uv(testing::detail::uniform_scalar(rng, -2.0f, 3.0f),
+                       testing::detail::uniform_scalar(rng, -2.0f, 3.0f));
+    cases.emplace_back(uv, int32_t(i % 5), scales[size_t(i / 5) % scales.size()]);
+  }
+  const std::vector<float> got = mask.run(cases);
+  size_t compared = 0, near_edge = 0, cut = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto [uv, pattern, scale] = cases[i];
+    const auto p = static_cast<scene::MaskPattern>(pattern);
+    if (edge_distance(uv, p, scale) < 1e-4) {  // float rounding may fall either side
+      ++near_edge;
+      continue;
+    }
+    ++compared;
+    const float want = scene::procedural_mask(uv, p, scale);
+    cut += want == 0.0f;
+    ASSERT_EQ(got[i], want) << "uv (" << uv.x << ", " << uv.y << ") pattern " << pattern
+                            << " scale (" << scale.x << ", " << scale.y << ")";
+  }
+  EXPECT_GT(compared, 29000u);
+  EXPECT_GT(cut, 5000u);  // both outcomes are exercised
+  // The comparison has power: circles of radius 0.31 instead of 0.3 disagree with the shader.
+  size_t differ = 0;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto [uv, pattern, scale] = cases[i];
+    if (pattern != int32_t(scene::MaskPattern::circles)) continue;
+    const glm::vec2 c = uv * scale - glm::floor(uv * scale) - 0.5f;
+    differ += (glm::length(c) > 0.31f ? 1.0f : 0.0f) != got[i];
+  }
+  EXPECT_GT(differ, 50u);
+}
+
+// ---- geometry agreement -------------------------------------------------------------------------
+constexpr const char* kHardSunScene = R"(
+name = "hard-sun"
+[camera]
+position = [0.3, 2.6, 3.6]
+target = [-0.2, 0.2, -0.6]
+fov_y = 55
+near = 0.1
+far = 40
+[sun]
+direction = [-0.4, -1.0, -0.3]
+angular_diameter = 0
+[shadows]
+filter = "hard"
+cascades = 1
+max_distance = 30
+fade_band = 0
+resolution = 4096
+[contact]
+steps = 0
+[render]
+width = 480
+height = 270
+[[material]]
+name = "grey"
+[[object]]
+mesh = "plane"
+size = [16, 16]
+material = "grey"
+casts_shadows = false
+[[object]]
+mesh = "box"
+size = [1, 1, 1]
+position = [1.5, 0.5, -0.5]
+rotation = [0, 25, 0]
+material = "grey"
+[[object]]
+mesh = "sphere"
+radius = 0.6
+position = [-1.5, 0.8, 0.2]
+material = "grey"
+[[object]]
+mesh = "chair"
+position = [0.2, 0, 1.4]
+material = "grey"
+)";
+
+// Receivers whose reference value is the same over a (2k+1)² window: away from shadow edges.
+std::vector<uint8_t> interior(const LightMeasurement& l, uint32_t w, uint32_t h, int k) {
+  std::vector<uint8_t> out(l.classes.size(), 0);
+  for (int y = k; y < int(h) - k; ++y)
+    for (int x = k; x < int(w) - k; ++x) {
+      const size_t i = size_t(y) * w + size_t(x);
+      if (l.classes[i] != ReceiverClass::lit) continue;
+      bool uniform = true;
+      for (int dy = -k; dy <= k && uniform; ++dy)
+        for (int dx = -k; dx <= k && uniform; ++dx) {
+          const size_t j = size_t(y + dy) * w + size_t(x + dx);
+          uniform = l.classes[j] == ReceiverClass::lit && l.reference.value[j] == l.reference.value[i];
+        }
+      out[i] = uniform;
+    }
+  return out;
+}
+
+TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
+  const scene::Scene s = scene::parse_scene(kHardSunScene, "hard-sun.toml", ".");
+  render::RendererOptions ro;
+  ro.visibility_output = true;
+  render::Renderer r(ctx(), s, ro);
+  r.render(0);
+  MeasureOptions mo;
+  const FrameMeasurement m = measure_frame(r, mo);
+  ASSERT_EQ(m.lights.size(), 1u);
+  const LightMeasurement& sun = m.lights[0];
+  EXPECT_TRUE(sun.area.hard());
+  const auto inner = interior(sun, m.width, m.height, 2);
+  size_t n = 0, agree = 0, shadowed = 0, shadowed_agree = 0;
+  for (size_t i = 0; i < inner.size(); ++i) {
+    if (!inner[i]) continue;
+    ++n;
+    const bool same = (sun.gpu[i] >= 0.5f) == (sun.reference.value[i] >= 0.5f);
+    agree += same;
+    if (sun.reference.value[i] < 0.5f) {
+      ++shadowed;
+      shadowed_agree += same;
+    }
+  }
+  ASSERT_GT(n, 50000u);
+  ASSERT_GT(shadowed, 800u);  // there are shadows to agree on
+  EXPECT_GE(double(agree) / double(n), 0.995)
+      << agree << " of " << n << " interior receivers agree; metrics: " << sun.metrics.to_line();
+  // The lit majority cannot hide a lost shadow: the umbra agrees on its own.
+  EXPECT_GE(double(shadowed_agree) / double(shadowed), 0.995)
+      << shadowed_agree << " of " << shadowed << " interior shadowed receivers agree";
+}
+
+// ---- every shipped scene ------------------------------------------------------------------------
+class ShippedSceneReference : public ReferenceGpu,
+                              public ::testing::WithParamInterface<std::string> {};
+
+TEST_P(ShippedSceneReference, MeasuresToFiniteMetricsAndWritesTheImages) {
+  scene::Scene s = scene::load_scene(scene::find_scene(GetParam()));
+  s.render.width = 256;
+  s.render.height = 144;
+  render::RendererOptions ro;
+  ro.visibility_output = true;
+  render::Renderer r(ctx(), s, ro);
+  r.render(0);
+  MeasureOptions mo;
+  mo.trace.samples = 64;
+  const FrameMeasurement m = measure_frame(r, mo);
+  ASSERT_FALSE(m.lights.empty());
+  uint64_t receivers = 0;
+  for (const auto& l : m.lights) {
+    SCOPED_TRACE(l.light.name());
+    receivers += l.metrics.receivers;
+    for (double x : {l.metrics.mean_abs, l.metrics.rmse, l.metrics.p99_abs, l.metrics.false_light,
+                     l.metrics.false_shadow})
+      EXPECT_TRUE(std::isfinite(x) && x >= 0.0 && x <= 1.0) << x;
+    EXPECT_EQ(std::isfinite(l.metrics.misclassified), l.area.hard());
+  }
+  EXPECT_GT(receivers, 1000u);
+  const fs::path dir = fs::temp_directory_path() /
+                       ("penumbra-reference-" + GetParam() + "-" + std::to_string(::getpid()));
+  const auto files = write_measurement(m, dir, "\"scene\": \"" + GetParam() + "\"");
+  EXPECT_EQ(files.size(), 2u + 3u * m.lights.size());
+  for (const auto& f : files) EXPECT_GT(fs::file_size(f), 100u) << f;
+  fs::remove_all(dir);
+}
+
+INSTANTIATE_TEST_SUITE_P(Scenes, ShippedSceneReference,
+                         ::testing::ValuesIn(scene::shipped_scenes()));
+
+// ---- bad input ----------------------------------------------------------------------------------
+TEST_F(ReferenceGpu, WithoutTheVisibilityOutputMeasuringIsAClearError) {
+  scene::Scene s = scene::parse_scene(kHardSunScene, "hard-sun.toml", ".");
+  render::Renderer r(ctx(), s);
+  r.render(0);
+  try {
+    measure_frame(r, {});
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("visibility_output"), std::string::npos) << e.what();
+  }
+  render::RendererOptions ro;
+  ro.visibility_output = true;
+  render::Renderer with(ctx(), s, ro);
+  with.render(0);
+  MeasureOptions mo;
+  mo.lights = {"spot0"};
+  try {
+    measure_frame(with, mo);
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("spot0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("sun"), std::string::npos) << e.what();
+  }
+}
+
+// Inside a box the rasterizer culls the box's faces (back faces) and sees the scene beyond;
+// the tracer keeps the box as a (two-sided) caster. The result is defined: finite metrics,
+// visibility in [0, 1] at every receiver, and the box's shadow where its rays cross it.
+TEST_F(ReferenceGpu, ACameraInsideGeometryGivesADefinedMeasurement) {
+  std::string text = kHardSunScene;
+  text += R"(
+[[object]]
+mesh = "box"
+size = [3, 3, 3]
+position = [0.3, 2.6, 3.6]
+material = "grey"
+)";
+  const scene::Scene s = scene::parse_scene(text, "inside.toml", ".");
+  render::RendererOptions ro;
+  ro.visibility_output = true;
+  render::Renderer r(ctx(), s, ro);
+  r.render(0);
+  const FrameMeasurement m = measure_frame(r, {});
+  ASSERT_EQ(m.lights.size(), 1u);
+  const auto& sun = m.lights[0];
+  EXPECT_GT(sun.metrics.receivers, 1000u);
+  for (size_t i = 0; i < sun.classes.size(); ++i)
+    if (sun.classes[i] != ReceiverClass::none) {
+      ASSERT_GE(sun.reference.value[i], 0.0f) << i;
+      ASSERT_LE(sun.reference.value[i], 1.0f) << i;
+    }
+  EXPECT_TRUE(std::isfinite(sun.metrics.mean_abs));
+  EXPECT_TRUE(std::isfinite(sun.metrics.misclassified));
+}
+
+}  // namespace
+}  // namespace penumbra::reference
