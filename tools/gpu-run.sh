@@ -34,5 +34,12 @@ for s in default grazing space indoor; do
   cat "$logs/view-$s.txt" >> "$out/view.txt"
 done
 cp "$logs/view-default/lit.png" "$out/default-lit.png" 2>/dev/null
+# The ray-traced reference of each shipped scene at its defaults, against this GPU's frames (the
+# tracing runs on this machine's CPU).
+for s in default grazing indoor space; do
+  PENUMBRA_VALIDATION=1 build/tools/penumbra-reference --scene "$s" --no-cache \
+    --out "$logs/reference-$s" >> "$out/reference.txt" 2>&1 || fail=1
+done
+PENUMBRA_VALIDATION=0 build/tools/penumbra-reference-bench --repeat 3 >> "$out/bench.txt" 2>&1
 tar -czf "$out/logs.tar.gz" -C "$logs" .
 exit $fail

@@ -140,7 +140,15 @@ int run(int argc, char** argv) {
   penumbra::render::Renderer renderer(ctx, scene, ro);
   renderer.render(o.frame);
   const auto m = penumbra::reference::measure_frame(renderer, o.measure);
-  if (m.lights.empty()) std::printf("%s: no lights to measure\n", scene.name.c_str());
+  if (m.lights.empty()) std::printf("note: scene '%s' has no lights to measure\n", scene.name.c_str());
+  if (m.triangles == 0)
+    std::printf("note: scene '%s' has no shadow casters (no meshes, or every object has "
+                "casts_shadows = false): every light is fully visible\n",
+                scene.name.c_str());
+  if (m.receivers.rejected > 0)
+    std::printf("note: %zu pixels have a non-finite position or normal (NaN in a mesh?) and are "
+                "not measured\n",
+                m.receivers.rejected);
 
   std::ostringstream header;
   header << "\"scene\": " << json_string(scene.name)

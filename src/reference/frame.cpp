@@ -42,14 +42,19 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
     lm.area = area_light(scene, l);
     TraceOptions t = options.trace;
     t.progress_label = "reference " + l.name();
+    // Only the receivers this light reaches are traced (outside a spot's cone or a light's
+    // range its visibility does not show in the frame).
+    lm.classes = classify_receivers(m.receivers, scene, l);
+    Receivers reached = m.receivers;
+    for (size_t i = 0; i < reached.size(); ++i)
+      if (lm.classes[i] == ReceiverClass::none) reached.valid[i] = 0;
     lm.reference = options.cache_dir
-                       ? trace_cached(tracer, m.receivers, lm.area, t, *options.cache_dir)
-                       : tracer.trace(m.receivers, lm.area, t);
+                       ? trace_cached(tracer, reached, lm.area, t, *options.cache_dir)
+                       : tracer.trace(reached, lm.area, t);
     const uint32_t slot = l.kind == LightKind::sun    ? render::kSunVisibilitySlot
                           : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
                                                       : render::point_visibility_slot(l.index);
     lm.gpu = renderer.read_visibility(slot);
-    lm.classes = classify_receivers(m.receivers, scene, l);
     lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics);
     lm.metrics.light = l.name();
     m.lights.push_back(std::move(lm));

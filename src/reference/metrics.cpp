@@ -70,7 +70,7 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
   m.hard = hard;
   std::vector<double> abs_errors;
   double sum_abs = 0.0, sum_sq = 0.0, sum_se = 0.0, sum_abs_away = 0.0;
-  uint64_t false_light = 0, false_shadow = 0, wrong = 0, shadowed = 0;
+  uint64_t false_light = 0, false_shadow = 0, wrong = 0, shadowed = 0, partial = 0;
   const double t = options.threshold;
   for (size_t i = 0; i < classes.size(); ++i) {
     const double r = reference.value[i], g = v[i];
@@ -90,7 +90,10 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
     if (g < r - t) ++false_shadow;
     if ((g >= 0.5) != (r >= 0.5)) ++wrong;
     if (r < 0.5) ++shadowed;
-    sum_se += std::isfinite(reference.std_error[i]) ? reference.std_error[i] : 0.0;
+    if (r > 0.0 && r < 1.0) {
+      ++partial;
+      sum_se += std::isfinite(reference.std_error[i]) ? reference.std_error[i] : 0.0;
+    }
   }
   const double n = double(m.receivers);
   if (m.receivers > 0) {
@@ -103,7 +106,8 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
     m.false_light = double(false_light) / n;
     m.false_shadow = double(false_shadow) / n;
     m.misclassified = hard ? double(wrong) / n : std::numeric_limits<double>::quiet_NaN();
-    m.reference_std_error = sum_se / n;
+    m.reference_partial_fraction = double(partial) / n;
+    m.reference_std_error = partial ? sum_se / double(partial) : 0.0;
     m.shadowed_fraction = double(shadowed) / n;
   } else {
     m.misclassified = std::numeric_limits<double>::quiet_NaN();
@@ -121,6 +125,7 @@ std::string Metrics::to_json() const {
     << ", \"false_shadow\": " << number(false_shadow)
     << ", \"misclassified\": " << number(misclassified)
     << ", \"mean_abs_facing_away\": " << number(mean_abs_facing_away)
+    << ", \"reference_partial_fraction\": " << number(reference_partial_fraction)
     << ", \"reference_std_error\": " << number(reference_std_error)
     << ", \"shadowed_fraction\": " << number(shadowed_fraction) << "}";
   return s.str();

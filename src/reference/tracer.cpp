@@ -143,6 +143,7 @@ Receivers receivers_from_points(std::span<const glm::dvec3> world_points,
     r.position.push_back(world_points[i] - origin);
     r.normal.push_back(ok ? n / len : glm::dvec3(0.0));
     r.valid.push_back(ok ? 1 : 0);
+    r.rejected += ok ? 0 : 1;
   }
   return r;
 }
@@ -176,7 +177,10 @@ Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<cons
       const glm::dvec3 p = glm::dvec3(h) / h.w;
       glm::dvec3 normal = view_to_world * glm::dvec3(nv);
       const double len = glm::length(normal);
-      if (!finite(p) || !(len > 0.0) || !std::isfinite(len)) continue;
+      if (!finite(p) || !(len > 0.0) || !std::isfinite(len)) {
+        ++r.rejected;
+        continue;
+      }
       r.position[i] = p;
       r.normal[i] = normal / len;
       r.valid[i] = 1;

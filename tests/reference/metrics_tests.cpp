@@ -33,6 +33,7 @@ TEST(ReferenceMetrics, FalseLightAndFalseShadowAreKeptApart) {
   EXPECT_NEAR(m.false_shadow, 1.0 / 5.0, 1e-12);  // receiver 4 (0.6 < 1 - 0.1)
   EXPECT_TRUE(std::isnan(m.misclassified));       // not a hard light
   EXPECT_NEAR(m.mean_abs_facing_away, 1.0, 1e-12);
+  EXPECT_NEAR(m.reference_partial_fraction, 1.0 / 5.0, 1e-12);  // receiver 2 (R = 0.5)
   EXPECT_NEAR(m.reference_std_error, 0.01, 1e-6);
   EXPECT_NEAR(m.shadowed_fraction, 2.0 / 5.0, 1e-12);  // receivers 0 and 3
 }

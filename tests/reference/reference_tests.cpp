@@ -506,6 +506,7 @@ TEST(ReferenceBadInput, NonFiniteReceiversAndVerticesAreLeftOutNotTraced) {
   const std::vector<glm::dvec3> points{{1, 0, 0}, {nan, 0, 0}, {-1, 0, 0}, {0.5, 0, 0.5}};
   const std::vector<glm::dvec3> normals{{0, 1, 0}, {0, 1, 0}, {0, 0, 0}, {nan, 1, 0}};
   const auto r = receivers_from_points(points, normals, glm::dvec3(0.0));
+  EXPECT_EQ(r.rejected, 3u);
   const auto v = tracer.trace(r, sun_light({0, 1, 0}, 0.53), {});
   EXPECT_EQ(v.value[0], 1.0f);
   for (size_t i : {1, 2, 3}) {

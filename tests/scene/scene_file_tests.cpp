@@ -247,6 +247,20 @@ TEST(SceneFile, SpotTargetGivesItsDirection) {
   EXPECT_EQ(narrow.spots[0].inner_degrees, 10.0f);  // the default inner clamps to outer
 }
 
+TEST(SceneFile, LightRadiusDefaultsToAPointAndIsRead) {
+  const Scene point = parse("[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\n" + kBox);
+  EXPECT_EQ(point.spots[0].radius, 0.0f);
+  const Scene area = parse(
+      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nradius = 0.25\n"
+      "[[point]]\nposition = [1, 2, 0]\nradius = 0.1\n" +
+      kBox);
+  EXPECT_EQ(area.spots[0].radius, 0.25f);
+  EXPECT_EQ(area.points[0].radius, 0.1f);
+  const std::string text = "[[point]]\nposition = [1, 2, 0]\nradius = -0.5\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "radius") + "[[point]] #1 radius = -0.5 is out "
+                                                             "of range; must be >= 0"));
+}
+
 TEST(SceneFile, ObjectTransform) {
   const Scene scene = parse(R"(
 [[object]]
@@ -486,9 +500,9 @@ INSTANTIATE_TEST_SUITE_P(
         UnknownKeyCase{"[[spot]]\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nangle = 3\n" + kBox,
                        "in [[spot]] #1", "angle"},
         UnknownKeyCase{"[[point]]\nposition = [0, 1, 0]\n[[point]]\nposition = [0, 2, 0]\n"
-                       "radius = 3\n" +
+                       "size = 3\n" +
                            kBox,
-                       "in [[point]] #2", "radius"},
+                       "in [[point]] #2", "size"},
         UnknownKeyCase{"[shadows]\nfilter = \"pcf\"\ncascade = 2\n" + kBox, "in [shadows]",
                        "cascade"},
         UnknownKeyCase{"[contact]\nstep = 2\n" + kBox, "in [contact]", "step"},

@@ -42,7 +42,11 @@ struct Metrics {
   double false_shadow = 0.0;   // fraction with V < R − t
   double misclassified = 0.0;  // hard lights: (V >= 0.5) != (R >= 0.5); NaN for area lights
   double mean_abs_facing_away = 0.0;
-  double reference_std_error = 0.0;  // mean of the reference's per-pixel standard error
+  // The reference's own noise: the share of receivers it found partly visible (0 < R < 1, the
+  // penumbrae), and the mean standard error over those. Receivers whose first rays all agreed
+  // stop there (TraceOptions::adaptive) and are not counted in either.
+  double reference_partial_fraction = 0.0;
+  double reference_std_error = 0.0;
   double shadowed_fraction = 0.0;    // of receivers with R < 0.5 (how much shadow there is)
   std::string to_json() const;
   std::string to_line() const;  // one line for stdout

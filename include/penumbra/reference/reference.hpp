@@ -74,6 +74,8 @@ struct Receivers {
   std::vector<glm::dvec3> position;  // relative to origin
   std::vector<glm::dvec3> normal;    // world orientation, unit
   std::vector<uint8_t> valid;
+  // Geometry pixels (or given points) left out for a non-finite position or normal.
+  size_t rejected = 0;
   size_t size() const { return position.size(); }
 };
 
