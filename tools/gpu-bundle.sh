@@ -6,7 +6,9 @@ set -euo pipefail
 cd "$(dirname "$0")/.."
 build=${PENUMBRA_BUILD:-build}
 rm -rf .gpu-bundle && mkdir -p .gpu-bundle
-list=$(find "$build" -type f -executable \( -path "*/tests/*" -o -path "*/shader_tests/*" -o -path "*/tools/*" -o -path "*/runtime/*" \) ! -path "*/CMakeFiles/*" ! -name "*.so" ! -name "*.sh")
+# PENUMBRA_BUNDLE_FILTER (an extended regex over the paths) packs a part, for a machine that takes
+# only so much at a time.
+list=$(find "$build" -type f -executable \( -path "*/tests/*" -o -path "*/shader_tests/*" -o -path "*/tools/*" -o -path "*/runtime/*" \) ! -path "*/CMakeFiles/*" ! -name "*.so" ! -name "*.sh" | grep -E "${PENUMBRA_BUNDLE_FILTER:-.}")
 tar -cf - $list | (cd .gpu-bundle && tar -xf -)
 find .gpu-bundle -type f -executable -exec strip --strip-unneeded {} +
 # Shared libraries from the project's Debian packages that a bare machine lacks (toml++,
