@@ -44,7 +44,7 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
     t.progress_label = "reference " + l.name();
     // Only the receivers this light reaches are traced (outside a spot's cone or a light's
     // range its visibility does not show in the frame).
-    lm.classes = classify_receivers(m.receivers, scene, l);
+    lm.classes = classify_receivers(m.receivers, scene, l, &lm.n_dot_l);
     Receivers reached = m.receivers;
     for (size_t i = 0; i < reached.size(); ++i)
       if (lm.classes[i] == ReceiverClass::none) reached.valid[i] = 0;
@@ -55,7 +55,8 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
                           : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
                                                       : render::point_visibility_slot(l.index);
     lm.gpu = renderer.read_visibility(slot);
-    lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics);
+    lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics,
+                                 lm.n_dot_l);
     lm.metrics.light = l.name();
     m.lights.push_back(std::move(lm));
   }

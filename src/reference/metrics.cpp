@@ -31,9 +31,11 @@ uint8_t grey_of(std::span<const uint8_t> rgba, size_t i) {
 }  // namespace
 
 std::vector<ReceiverClass> classify_receivers(const Receivers& receivers,
-                                              const scene::Scene& scene, const LightRef& light) {
+                                              const scene::Scene& scene, const LightRef& light,
+                                              std::vector<float>* n_dot_l) {
   const AreaLight a = area_light(scene, light);
   std::vector<ReceiverClass> out(receivers.size(), ReceiverClass::none);
+  if (n_dot_l) n_dot_l->assign(receivers.size(), 0.0f);
   double range = std::numeric_limits<double>::infinity(), cos_outer = -2.0;
   glm::dvec3 axis(0.0);
   if (light.kind == LightKind::spot) {
@@ -55,17 +57,20 @@ std::vector<ReceiverClass> classify_receivers(const Receivers& receivers,
       l = d / dist;
       if (light.kind == LightKind::spot && !(glm::dot(-l, axis) > cos_outer)) continue;
     }
-    out[i] = glm::dot(receivers.normal[i], l) > 0.0 ? ReceiverClass::lit
-                                                    : ReceiverClass::facing_away;
+    const double c = glm::dot(receivers.normal[i], l);
+    out[i] = c > 0.0 ? ReceiverClass::lit : ReceiverClass::facing_away;
+    if (n_dot_l) (*n_dot_l)[i] = float(std::max(c, 0.0));
   }
   return out;
 }
 
 Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
                         std::span<const ReceiverClass> classes, bool hard,
-                        const MetricsOptions& options) {
+                        const MetricsOptions& options, std::span<const float> n_dot_l) {
   check_size(reference.value.size(), classes.size(), "the reference");
   check_size(v.size(), classes.size(), "the GPU visibility");
+  if (!n_dot_l.empty()) check_size(n_dot_l.size(), classes.size(), "the n.l weights");
+  double sum_weighted = 0.0, sum_weights = 0.0;
   Metrics m;
   m.hard = hard;
   std::vector<double> abs_errors;
@@ -85,6 +90,10 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
     const double e = g - r;
     sum_abs += std::abs(e);
     sum_sq += e * e;
+    if (!n_dot_l.empty()) {
+      sum_weighted += std::abs(e) * n_dot_l[i];
+      sum_weights += n_dot_l[i];
+    }
     abs_errors.push_back(std::abs(e));
     if (g > r + t) ++false_light;
     if (g < r - t) ++false_shadow;
@@ -98,6 +107,7 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
   const double n = double(m.receivers);
   if (m.receivers > 0) {
     m.mean_abs = sum_abs / n;
+    m.mean_abs_lit = sum_weights > 0.0 ? sum_weighted / sum_weights : 0.0;
     m.rmse = std::sqrt(sum_sq / n);
     const size_t k = std::min(abs_errors.size() - 1,
                               static_cast<size_t>(std::ceil(0.99 * double(abs_errors.size()))) - 1);
@@ -120,7 +130,8 @@ std::string Metrics::to_json() const {
   std::ostringstream s;
   s << "{\"light\": \"" << light << "\", \"hard\": " << (hard ? "true" : "false")
     << ", \"receivers\": " << receivers << ", \"facing_away\": " << facing_away
-    << ", \"mean_abs\": " << number(mean_abs) << ", \"rmse\": " << number(rmse)
+    << ", \"mean_abs\": " << number(mean_abs) << ", \"mean_abs_lit\": " << number(mean_abs_lit)
+    << ", \"rmse\": " << number(rmse)
     << ", \"p99_abs\": " << number(p99_abs) << ", \"false_light\": " << number(false_light)
     << ", \"false_shadow\": " << number(false_shadow)
     << ", \"misclassified\": " << number(misclassified)
@@ -134,9 +145,10 @@ std::string Metrics::to_json() const {
 std::string Metrics::to_line() const {
   char b[512];
   std::snprintf(b, sizeof b,
-                "%s: receivers %llu  mean|dV| %.4f  rmse %.4f  p99 %.3f  false-light %.2f%%  "
-                "false-shadow %.2f%%%s",
-                light.c_str(), static_cast<unsigned long long>(receivers), mean_abs, rmse, p99_abs,
+                "%s: receivers %llu  mean|dV| %.4f (n.l-weighted %.4f)  rmse %.4f  p99 %.3f  "
+                "false-light %.2f%%  false-shadow %.2f%%%s",
+                light.c_str(), static_cast<unsigned long long>(receivers), mean_abs, mean_abs_lit,
+                rmse, p99_abs,
                 100.0 * false_light, 100.0 * false_shadow,
                 hard ? ("  misclassified " + number(100.0 * misclassified) + "%").c_str() : "");
   return b;

@@ -49,6 +49,18 @@ TEST(ReferenceMetrics, HardLightsCountMisclassifiedPixels) {
   EXPECT_NEAR(tight.false_shadow, 0.0, 1e-12);  // 0.4 is not < 1 - 0.65
 }
 
+TEST(ReferenceMetrics, TheLitWeightedMeanCountsGrazingErrorsLittle) {
+  const auto r = ref({0.0f, 0.0f, 0.0f});
+  const std::vector<float> v{1.0f, 0.0f, 0.0f};
+  const std::vector<C> c(3, C::lit);
+  const std::vector<float> grazing{0.01f, 1.0f, 1.0f}, facing{1.0f, 0.01f, 0.01f};
+  EXPECT_NEAR(compute_metrics(v, r, c, false, {}, grazing).mean_abs_lit, 0.01 / 2.01, 1e-6);
+  EXPECT_NEAR(compute_metrics(v, r, c, false, {}, facing).mean_abs_lit, 1.0 / 1.02, 1e-6);
+  EXPECT_NEAR(compute_metrics(v, r, c, false).mean_abs, 1.0 / 3.0, 1e-6);  // unweighted
+  EXPECT_EQ(compute_metrics(v, r, c, false).mean_abs_lit, 0.0);
+  EXPECT_THROW(compute_metrics(v, r, c, false, {}, std::vector<float>{1.0f}), Error);
+}
+
 TEST(ReferenceMetrics, P99IsAPercentileNotTheMaximum) {
   std::vector<float> values(1000, 0.0f), v(1000, 0.0f);
   for (int i = 0; i < 1000; ++i) v[i] = float(i) / 1000.0f;

@@ -17,6 +17,7 @@ struct LightMeasurement {
   Visibility reference;
   std::vector<float> gpu;  // the GPU's visibility of this light, per pixel
   std::vector<ReceiverClass> classes;
+  std::vector<float> n_dot_l;  // cosine to the light's centre, 0 where it does not reach
   Metrics metrics;
 };
 

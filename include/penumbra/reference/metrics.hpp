@@ -23,8 +23,10 @@ enum class ReceiverClass : uint8_t {
 
 // Classifies each receiver for one of the scene's lights: in range (spot, point), inside the
 // spot's cone, facing the light's centre.
+// With n_dot_l, also each receiver's cosine to the light's centre (0 where not reached).
 std::vector<ReceiverClass> classify_receivers(const Receivers& receivers,
-                                              const scene::Scene& scene, const LightRef& light);
+                                              const scene::Scene& scene, const LightRef& light,
+                                              std::vector<float>* n_dot_l = nullptr);
 
 struct MetricsOptions {
   double threshold = 0.1;  // t of false light / false shadow
@@ -36,6 +38,9 @@ struct Metrics {
   uint64_t receivers = 0;    // ReceiverClass::lit pixels with a finite V and R
   uint64_t facing_away = 0;  // ReceiverClass::facing_away pixels
   double mean_abs = 0.0;     // mean |V − R|
+  // mean |V − R| weighted by n·l: the error as the light's diffuse term shows it (errors where
+  // the light grazes the surface count little); 0 without weights.
+  double mean_abs_lit = 0.0;
   double rmse = 0.0;
   double p99_abs = 0.0;        // 99th percentile of |V − R|
   double false_light = 0.0;    // fraction with V > R + t
@@ -52,10 +57,12 @@ struct Metrics {
   std::string to_line() const;  // one line for stdout
 };
 
-// v: the GPU's visibility per pixel; classes from classify_receivers.
+// v: the GPU's visibility per pixel; classes (and n_dot_l, optional: empty for none) from
+// classify_receivers.
 Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
                         std::span<const ReceiverClass> classes, bool hard,
-                        const MetricsOptions& options = {});
+                        const MetricsOptions& options = {},
+                        std::span<const float> n_dot_l = {});
 
 // ---- images (RGBA8, row-major) ----------------------------------------------------------------
 // A visibility image in grey over receivers; other pixels show the frame dimmed.
