@@ -203,8 +203,12 @@ ContactShadowPass::ContactShadowPass(gpu::Context& ctx, const ContactShadowPassD
       height_(desc.height),
       settings_(desc.settings),
       reads_(desc.reads),
-      shader_dir_(desc.shader_dir.empty() ? default_shader_dir() : desc.shader_dir) {
+      shader_dir_(desc.shader_dir.empty() ? default_shader_dir() : desc.shader_dir),
+      given_march_spirv_(desc.march_spirv),
+      given_resolve_spirv_(desc.resolve_spirv) {
   validate(settings_);
+  if (given_march_spirv_.empty() != given_resolve_spirv_.empty())
+    throw Error("ContactShadowPassDesc: give both stages' SPIR-V (march and resolve) or neither");
   if (width_ == 0 || height_ == 0) {
     throw Error("ContactShadowPassDesc: extent " + std::to_string(width_) + "x" +
                 std::to_string(height_) + " must not be empty");
@@ -243,9 +247,14 @@ void ContactShadowPass::create() {
                     VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT)) {
     throw Error("ContactShadowPass: " + ctx_.info().name + " cannot store to R8_UNORM images");
   }
-  shader::Compiler compiler(shader::CompileOptions{{shader_dir_}, {}, false});
-  resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
-  march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
+  if (!given_march_spirv_.empty()) {
+    resolve_spirv_ = given_resolve_spirv_;
+    march_spirv_ = given_march_spirv_;
+  } else {
+    shader::Compiler compiler(shader::CompileOptions{{shader_dir_}, {}, false});
+    resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
+    march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
+  }
   gpu::Specialization spec;
   spec.set<std::uint32_t>(0, reads_ != ContactDepthReads::nearest_only ? 1u : 0u);
   spec.set<std::uint32_t>(1, reads_ != ContactDepthReads::bilinear_only ? 1u : 0u);

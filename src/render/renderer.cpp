@@ -142,7 +142,7 @@ struct Renderer::Impl {
   BuildReport report;
   std::vector<PassTiming> timings;
 
-  shader::Compiler compiler;
+  shader::ProgramRegistry registry;  // every pipeline's sources, for hot reload
   std::vector<GpuMesh> meshes;
   std::vector<Draw> draws;
 
@@ -188,79 +188,24 @@ struct Renderer::Impl {
         height(o.height ? o.height : s.render.height),
         reverse_z(s.shadows.reverse_z),
         visibility_output(o.visibility_output),
-        compiler(shader::CompileOptions{{shader_dir}, {}, false}),
+        registry(shader_dir),
         pool(c, 16),
         timestamps(c, 32),
         recorder(c) {}
 
-  // ---- pipeline registry: what each pipeline was built from, so a shader edit rebuilds
-  // exactly the pipelines whose sources (or their includes) read the edited file.
-  struct Source {
-    std::string file;  // relative to shader_dir
-    std::vector<shader::Define> defines;
-  };
-  using Spirvs = std::vector<std::vector<uint32_t>>;
-  struct PipelineRecord {
-    std::string name;
-    std::vector<Source> sources;
-    std::set<fs::path> dependencies;
-    std::function<void(const Spirvs&)> create;
-  };
-  std::vector<PipelineRecord> records;
-
-  Spirvs compile_sources(const std::vector<Source>& sources, std::set<fs::path>* deps) {
-    Spirvs out;
-    for (const auto& src : sources) {
-      auto c = compiler.compile_file(shader_dir / src.file, std::nullopt, src.defines);
-      if (deps)
-        for (const auto& d : c.dependencies) deps->insert(fs::weakly_canonical(d));
-      out.push_back(std::move(c.spirv));
-    }
-    return out;
-  }
+  // ---- the pipelines, in the program registry: a shader edit rebuilds exactly the pipelines
+  // whose sources (or their includes) read the edited file.
+  using Source = shader::ProgramSource;
+  using Spirvs = shader::Spirvs;
 
   void add_pipeline(const std::string& name, std::vector<Source> sources,
                     std::function<void(const Spirvs&)> create) {
-    PipelineRecord r{name, std::move(sources), {}, std::move(create)};
-    r.create(compile_sources(r.sources, &r.dependencies));
+    registry.add(name, std::move(sources), std::move(create));
     report.pipelines.push_back(name);
-    records.push_back(std::move(r));
   }
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
-    ReloadResult result;
-    std::set<fs::path> files;
-    for (const auto& f : changed) files.insert(fs::weakly_canonical(f));
-    bool waited = false;
-    for (auto& r : records) {
-      const bool affected = std::any_of(files.begin(), files.end(), [&](const fs::path& f) {
-        return r.dependencies.count(f) > 0;
-      });
-      if (!affected) continue;
-      std::set<fs::path> deps;
-      Spirvs spirv;
-      try {
-        spirv = compile_sources(r.sources, &deps);
-      } catch (const Error& e) {  // a compile error, or a stage file that cannot be read
-        result.failed.push_back(r.name);
-        result.errors.push_back(e.what());
-        continue;  // the last good pipeline stays
-      }
-      if (!waited) {
-        vkDeviceWaitIdle(ctx.device());
-        waited = true;
-      }
-      try {
-        r.create(spirv);
-      } catch (const Error& e) {
-        result.failed.push_back(r.name);
-        result.errors.push_back(e.what());
-        continue;
-      }
-      r.dependencies = std::move(deps);
-      result.rebuilt.push_back(r.name);
-    }
-    return result;
+    return registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
   }
 
   static std::string variant(const std::string& name, const std::vector<shader::Define>& d) {
@@ -549,8 +494,11 @@ struct Renderer::Impl {
     if (desc.settings.step_count == 0) return;
     add_pipeline("contact-shadows (depth resolve + march)",
                  {{"contact_shadows.comp", {}}, {"depth_resolve.comp", {}}},
-                 [this, desc](const Spirvs&) {
-                   auto pass = std::make_unique<ContactShadowPass>(ctx, desc);
+                 [this, desc](const Spirvs& spirv) {
+                   ContactShadowPassDesc d = desc;
+                   d.march_spirv = spirv[0];
+                   d.resolve_spirv = spirv[1];
+                   auto pass = std::make_unique<ContactShadowPass>(ctx, d);
                    contact = std::move(pass);
                    bind_contact_mask();
                  });
@@ -1017,17 +965,11 @@ ReloadResult Renderer::reload(const std::vector<fs::path>& changed_files) {
 }
 
 std::vector<fs::path> Renderer::shader_files() const {
-  std::set<fs::path> all;
-  for (const auto& r : impl_->records) all.insert(r.dependencies.begin(), r.dependencies.end());
-  return {all.begin(), all.end()};
+  return impl_->registry.files();
 }
 
 std::vector<std::string> Renderer::pipelines_reading(const fs::path& file) const {
-  const fs::path f = fs::weakly_canonical(file);
-  std::vector<std::string> out;
-  for (const auto& r : impl_->records)
-    if (r.dependencies.count(f)) out.push_back(r.name);
-  return out;
+  return impl_->registry.programs_reading(file);
 }
 
 Renderer::~Renderer() {

@@ -147,6 +147,9 @@ struct ContactShadowPassDesc {
   // Where contact_shadows.comp, depth_resolve.comp and penumbra/ live; empty: the source tree's
   // shaders/ directory this library was built from.
   std::filesystem::path shader_dir;
+  // The two stages already compiled (by a renderer's program registry); empty: the pass
+  // compiles them from shader_dir itself.
+  std::vector<std::uint32_t> march_spirv, resolve_spirv;
 };
 
 // The pass. It owns its pipelines, samplers, descriptor sets, the R32F resolved depth and the
@@ -212,6 +215,7 @@ class ContactShadowPass {
   std::unique_ptr<gpu::Image> resolved_;
   std::unique_ptr<gpu::Image> mask_;
   std::vector<std::uint32_t> march_spirv_, resolve_spirv_;
+  std::vector<std::uint32_t> given_march_spirv_, given_resolve_spirv_;  // from the desc
   std::uint64_t dispatch_count_ = 0;
   std::vector<std::string> recorded_;
   ContactShadowGpu last_params_{};

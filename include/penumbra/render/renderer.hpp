@@ -12,6 +12,7 @@
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/render/frame_types.hpp>
 #include <penumbra/scene/scene.hpp>
+#include <penumbra/shader/registry.hpp>
 #include <string>
 #include <vector>
 
@@ -70,14 +71,9 @@ struct BuildReport {
   bool has_pipeline(const std::string& name) const;
 };
 
-// What a reload did: pipelines rebuilt, pipelines whose new sources failed (the last good
-// pipeline keeps running), and the compile errors with file:line.
-struct ReloadResult {
-  std::vector<std::string> rebuilt;
-  std::vector<std::string> failed;
-  std::vector<std::string> errors;
-  bool ok() const { return failed.empty(); }
-};
+// What a reload did (the program registry's result): pipelines rebuilt, pipelines whose new
+// sources failed (the last good pipeline keeps running), and the errors with file:line.
+using ReloadResult = shader::ReloadResult;
 
 class Renderer {
  public:
