@@ -241,7 +241,7 @@ const std::vector<Param>& params() {
       {"shadows.reverse_z", true, [](S& s, K k, K v) { s.shadows.reverse_z = boolean(k, v); },
        [](const S& s) { return std::string(s.shadows.reverse_z ? "true" : "false"); }},
       {"contact.steps", true,
-       [](S& s, K k, K v) { s.contact.steps = static_cast<uint32_t>(integer(k, v, 0, 256)); },
+       [](S& s, K k, K v) { s.contact.steps = static_cast<uint32_t>(integer(k, v, 0, scene::kMaxContactSteps)); },
        [](const S& s) { return std::to_string(s.contact.steps); }},
       {"contact.max_distance", true,
        [](S& s, K k, K v) { s.contact.max_distance = positive(k, v); },

@@ -176,7 +176,7 @@ void Ui::panel(Session& session) {
       slider("sun intensity", "sun.intensity", 0.0f, 20.0f);
     }
     if (ImGui::CollapsingHeader("contact shadows", ImGuiTreeNodeFlags_DefaultOpen)) {
-      islider("steps", "contact.steps", 0, 64);
+      islider("steps", "contact.steps", 0, int(scene::kMaxContactSteps));
       slider("max distance##contact", "contact.max_distance", 0.0f, 2.0f);
       slider("thickness", "contact.thickness", 0.0f, 0.5f);
       slider("intensity", "contact.intensity", 0.0f, 1.0f);

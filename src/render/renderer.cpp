@@ -22,6 +22,8 @@
 
 namespace penumbra::render {
 namespace fs = std::filesystem;
+static_assert(scene::kMaxContactSteps == kContactMaxSteps,
+              "the scene file's contact step range must be what the contact pass accepts");
 
 namespace {
 

@@ -568,7 +568,7 @@ void read_shadows(const Reader& r, ShadowSettings& s) {
 
 void read_contact(const Reader& r, ContactSettings& c) {
   r.check_keys({"steps", "max_distance", "thickness", "intensity"});
-  c.steps = r.uint("steps", c.steps, 0, 256);
+  c.steps = r.uint("steps", c.steps, 0, kMaxContactSteps);
   c.max_distance = r.numberf("max_distance", c.max_distance, kPositive);
   c.thickness = r.numberf("thickness", c.thickness, kPositive);
   c.intensity = r.numberf("intensity", c.intensity, kUnit);

@@ -579,6 +579,11 @@ TEST(SceneErrors, ValuesOutOfRange) {
                                         "element must be > 0"));
   text = "[[object]]\nmesh = \"sphere\"\nradius = -1\n";
   EXPECT_THAT(error_of(text), HasSubstr("[[object]] #1 radius = -1 is out of range; must be > 0"));
+  // The contact pass marches at most 64 steps: the file says so, not the renderer later.
+  text = "[contact]\nsteps = 100\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "steps") + "[contact] steps = 100 is out of "
+                                                            "range; must be in [0, 64]"));
+  EXPECT_EQ(parse("[contact]\nsteps = 64\n" + kBox).contact.steps, 64u);
   text = "[camera]\nnear = 1\nfar = 0.5\n" + kBox;
   EXPECT_THAT(error_of(text),
               HasSubstr(at(text, "far") + "[camera] far = 0.5 must be greater than near = 1"));

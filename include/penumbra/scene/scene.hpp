@@ -109,8 +109,12 @@ struct ShadowSettings {
   bool reverse_z = true;
 };
 
+// The most contact-shadow march steps (the contact pass's kContactMaxSteps; the renderer
+// static_asserts that they agree).
+inline constexpr std::uint32_t kMaxContactSteps = 64;
+
 struct ContactSettings {
-  std::uint32_t steps = 16;  // 0 = off: no contact-shadow pass
+  std::uint32_t steps = 16;  // in [0, kMaxContactSteps]; 0 = off: no contact-shadow pass
   float max_distance = 0.3f;
   float thickness = 0.05f;
   float intensity = 1.0f;  // in [0, 1]
