@@ -39,7 +39,7 @@ std::string dispatch_text(const char* name, std::uint32_t x, std::uint32_t y) {
 }  // namespace
 
 std::filesystem::path default_shader_dir() {
-  return PENUMBRA_SHADER_DIR;
+  return shader::default_shader_dir();
 }
 
 void validate(const ContactShadowSettings& s) {

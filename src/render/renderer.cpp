@@ -185,7 +185,7 @@ struct Renderer::Impl {
   Impl(gpu::Context& c, const scene::Scene& s, const RendererOptions& o)
       : ctx(c),
         scene(s),
-        shader_dir(o.shader_dir.empty() ? fs::path(PENUMBRA_SHADER_DIR) : o.shader_dir),
+        shader_dir(o.shader_dir.empty() ? shader::default_shader_dir() : o.shader_dir),
         width(o.width ? o.width : s.render.width),
         height(o.height ? o.height : s.render.height),
         reverse_z(s.shadows.reverse_z),

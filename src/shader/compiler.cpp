@@ -585,4 +585,8 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   return result;
 }
 
+std::filesystem::path default_shader_dir() {
+  return PENUMBRA_SHADER_DIR;
+}
+
 }  // namespace penumbra::shader

@@ -38,9 +38,7 @@ std::vector<fs::path> default_shader_dirs() {
     while (std::getline(ss, item, ':'))
       if (!item.empty()) dirs.emplace_back(item);
   }
-#ifdef PENUMBRA_SHADER_DIR
-  dirs.emplace_back(PENUMBRA_SHADER_DIR);
-#endif
+  dirs.push_back(shader::default_shader_dir());
   return dirs;
 }
 

@@ -221,7 +221,7 @@ class ContactShadowPass {
   ContactShadowGpu last_params_{};
 };
 
-// The path of the shader directory compiled into this library (PENUMBRA_SHADER_DIR).
+// shader::default_shader_dir(), for the render layer's users.
 std::filesystem::path default_shader_dir();
 
 }  // namespace penumbra::render

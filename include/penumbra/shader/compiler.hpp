@@ -113,4 +113,8 @@ class Compiler {
   Stats stats_;
 };
 
+// The shader tree (the stage files and the penumbra/ library) of the source tree Penumbra was
+// built from: the one definition every layer's default comes from.
+std::filesystem::path default_shader_dir();
+
 }  // namespace penumbra::shader
