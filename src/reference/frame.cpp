@@ -17,19 +17,21 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
   const render::GBuffer g = renderer.read_gbuffer();
   m.receivers = receivers_from_gbuffer(g.width, g.height, g.depth, g.normal_view, g.camera.view,
                                        g.camera.proj, g.camera.origin);
-  std::vector<LightRef> lights;
-  for (const auto& l : scene_lights(scene))
-    if (options.lights.empty() || std::find(options.lights.begin(), options.lights.end(),
-                                            l.name()) != options.lights.end())
-      lights.push_back(l);
+  // The lights asked for (all when none is named); an unknown name is an error listing them.
+  const std::vector<LightRef> all = scene_lights(scene);
+  std::vector<LightRef> lights = options.lights.empty() ? all : std::vector<LightRef>{};
   for (const auto& name : options.lights) {
-    const auto all = scene_lights(scene);
-    if (std::none_of(all.begin(), all.end(), [&](const LightRef& l) { return l.name() == name; })) {
+    const auto it =
+        std::find_if(all.begin(), all.end(), [&](const LightRef& l) { return l.name() == name; });
+    if (it == all.end()) {
       std::string have;
       for (const auto& l : all) have += (have.empty() ? "" : ", ") + l.name();
-      throw Error("reference: scene '" + scene.name + "' has no light '" + name + "' (it has: " +
-                  (have.empty() ? "none" : have) + ")");
+      throw Error("reference: scene '" + scene.name + "' has no light '" + name +
+                  "' (it has: " + (have.empty() ? "none" : have) + ")");
     }
+    if (std::none_of(lights.begin(), lights.end(),
+                     [&](const LightRef& l) { return l.name() == name; }))
+      lights.push_back(*it);
   }
   const Tracer tracer(scene, g.camera.origin);
   m.triangles = tracer.triangle_count();
@@ -48,9 +50,8 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
     Receivers reached = m.receivers;
     for (size_t i = 0; i < reached.size(); ++i)
       if (lm.classes[i] == ReceiverClass::none) reached.valid[i] = 0;
-    lm.reference = options.cache_dir
-                       ? trace_cached(tracer, reached, lm.area, t, *options.cache_dir)
-                       : tracer.trace(reached, lm.area, t);
+    lm.reference = options.cache_dir ? trace_cached(tracer, reached, lm.area, t, *options.cache_dir)
+                                     : tracer.trace(reached, lm.area, t);
     const uint32_t slot = l.kind == LightKind::sun    ? render::kSunVisibilitySlot
                           : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
                                                       : render::point_visibility_slot(l.index);
@@ -93,7 +94,8 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
     std::ofstream out(tmp, std::ios::trunc);
     out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
         << "\"width\": " << m.width << ", \"height\": " << m.height
-        << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json << "\n  ]\n}\n";
+        << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json
+        << "\n  ]\n}\n";
     out.flush();
     if (!out) throw Error("cannot write " + tmp.string());
   }

@@ -107,17 +107,15 @@ AreaLight area_light(const scene::Scene& scene, const LightRef& light) {
       a.angular_radius = 0.5 * glm::radians(double(scene.sun->angular_diameter_degrees));
       break;
     case LightKind::spot:
-      if (light.index >= scene.spots.size())
+    case LightKind::point: {
+      const bool spot = light.kind == LightKind::spot;
+      if (light.index >= (spot ? scene.spots.size() : scene.points.size()))
         throw Error("reference: scene '" + scene.name + "' has no " + light.name());
-      a.position = glm::dvec3(scene.spots[light.index].position);
-      a.radius = scene.spots[light.index].radius;
+      a.position =
+          glm::dvec3(spot ? scene.spots[light.index].position : scene.points[light.index].position);
+      a.radius = spot ? scene.spots[light.index].radius : scene.points[light.index].radius;
       break;
-    case LightKind::point:
-      if (light.index >= scene.points.size())
-        throw Error("reference: scene '" + scene.name + "' has no " + light.name());
-      a.position = glm::dvec3(scene.points[light.index].position);
-      a.radius = scene.points[light.index].radius;
-      break;
+    }
   }
   return a;
 }
@@ -236,14 +234,14 @@ Tracer::Tracer(const scene::Scene& s, glm::dvec3 origin) : impl_(std::make_uniqu
         const glm::vec3 p = positions[idx];
         ok = ok && std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z);
       }
-      if (ok) indices.insert(indices.end(), mesh.indices.begin() + long(t),
-                             mesh.indices.begin() + long(t) + 3);
+      if (ok)
+        indices.insert(indices.end(), mesh.indices.begin() + long(t),
+                       mesh.indices.begin() + long(t) + 3);
     }
     if (indices.empty()) continue;
     RTCGeometry g = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(g, RTC_BUFFER_TYPE_VERTEX, 0,
-                                                           RTC_FORMAT_FLOAT3, sizeof(float) * 3,
-                                                           positions.size()));
+    auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
+        g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(float) * 3, positions.size()));
     auto* ib = static_cast<uint32_t*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, sizeof(uint32_t) * 3, indices.size() / 3));
     if (!vb || !ib) {
@@ -318,9 +316,10 @@ struct LightSampler {
     return true;
   }
 
-  // Sample u in [0, 1)² → direction and ray length.
-  void sample(glm::dvec2 u, const glm::dvec3& to_centre, double dist, glm::dvec3& dir,
-              double& tfar) const {
+  // Sample u in [0, 1)² → direction and ray length; (b1, b2) span the plane normal to
+  // to_centre (sphere lights; from basis(), once per receiver).
+  void sample(glm::dvec2 u, const glm::dvec3& to_centre, double dist, const glm::dvec3& b1,
+              const glm::dvec3& b2, glm::dvec3& dir, double& tfar) const {
     const glm::dvec2 d = concentric_disk(u);
     if (light.kind == LightKind::sun) {
       dir = glm::normalize(to_centre + tan_radius * (d.x * e1 + d.y * e2));
@@ -328,8 +327,6 @@ struct LightSampler {
       return;
     }
     // Uniform in the solid angle of the sphere: the disk's radius² maps to 1 - cos θ.
-    glm::dvec3 b1, b2;
-    basis(to_centre, b1, b2);
     const double sin_max = light.radius / dist;
     const double one_minus_cos_max = sin_max * sin_max / (1.0 + std::sqrt(1.0 - sin_max * sin_max));
     const double rho2 = d.x * d.x + d.y * d.y;
@@ -432,19 +429,21 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
           count = 1;
         } else {
           const uint64_t seed = detail::mix64(options.seed ^ detail::mix64(i));
+          glm::dvec3 b1(0.0), b2(0.0);
+          if (light.kind != LightKind::sun) basis(to_centre, b1, b2);
           for (; count < max_samples; ++count) {
             if (options.adaptive && count == initial && (visible == 0 || visible == count)) break;
             glm::dvec3 dir;
             double tfar;
-            ls.sample(sobol_owen(count, seed), to_centre, dist, dir, tfar);
+            ls.sample(sobol_owen(count, seed), to_centre, dist, b1, b2, dir, tfar);
             if (!occluded(scene, org, dir, tfar)) ++visible;
           }
         }
         local_rays += count;
         const double pv = double(visible) / count;
         out.value[i] = float(pv);
-        out.std_error[i] = hard ? 0.0f
-                                : float(std::sqrt(std::max(pv * (1.0 - pv), 1.0 / count) / count));
+        out.std_error[i] =
+            hard ? 0.0f : float(std::sqrt(std::max(pv * (1.0 - pv), 1.0 / count) / count));
         out.samples[i] = count;
       }
       done.fetch_add(end - begin);
@@ -460,8 +459,9 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
   if (show) {
     while (done.load() < n) {
       std::this_thread::sleep_for(std::chrono::milliseconds(200));
-      print_progress(options.progress_label, std::min(done.load(), n), n,
-                     std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+      print_progress(
+          options.progress_label, std::min(done.load(), n), n,
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
     }
   }
   for (auto& t : pool) t.join();

@@ -99,6 +99,14 @@ std::string format_name(VkFormat f) {
   }
 }
 
+// The halves of an RGBA16F download, as floats.
+std::vector<float> unpack_halves(const std::vector<std::byte>& bytes) {
+  const auto* h = reinterpret_cast<const uint16_t*>(bytes.data());
+  std::vector<float> out(bytes.size() / 2);
+  for (size_t i = 0; i < out.size(); ++i) out[i] = glm::unpackHalf1x16(h[i]);
+  return out;
+}
+
 uint32_t filter_index(scene::Filter f) {
   switch (f) {
     case scene::Filter::hard:
@@ -283,9 +291,9 @@ struct Renderer::Impl {
     readback = gpu::Buffer(ctx, size_t{width} * height * 4, VK_BUFFER_USAGE_TRANSFER_DST_BIT);
     if (visibility_output)
       for (int i = 0; i < 2; ++i)
-        visibility[i] = make_image("visibility" + std::to_string(i), gpu::ImageKind::image_2d,
-                                   kVisibilityFormat, width, height, 1,
-                                   VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT);
+        visibility[i] =
+            make_image("visibility" + std::to_string(i), gpu::ImageKind::image_2d,
+                       kVisibilityFormat, width, height, 1, VK_IMAGE_USAGE_COLOR_ATTACHMENT_BIT);
 
     nearest = gpu::Sampler(ctx, gpu::SamplerDesc{});
     gpu::SamplerDesc cmp;
@@ -990,11 +998,7 @@ std::vector<uint8_t> Renderer::read_rgba8() {
 
 std::vector<float> Renderer::read_shadow_info() {
   if (!impl_->req.sun_shadows) return {};
-  const auto bytes = impl_->info.download();
-  std::vector<float> out(size_t{impl_->width} * impl_->height * 4);
-  const auto* h = reinterpret_cast<const uint16_t*>(bytes.data());
-  for (size_t i = 0; i < out.size(); ++i) out[i] = glm::unpackHalf1x16(h[i]);
-  return out;
+  return unpack_halves(impl_->info.download());
 }
 
 GBuffer Renderer::read_gbuffer() {
@@ -1006,13 +1010,9 @@ GBuffer Renderer::read_gbuffer() {
   const auto depth_bytes = m.depth.download();
   g.depth.resize(n);
   std::memcpy(g.depth.data(), depth_bytes.data(), n * sizeof(float));
-  const auto normal_bytes = m.normal.download();
-  const auto* h = reinterpret_cast<const uint16_t*>(normal_bytes.data());
+  const std::vector<float> normals = unpack_halves(m.normal.download());
   g.normal_view.resize(n);
-  for (size_t i = 0; i < n; ++i)
-    g.normal_view[i] = glm::vec4(glm::unpackHalf1x16(h[4 * i]), glm::unpackHalf1x16(h[4 * i + 1]),
-                                 glm::unpackHalf1x16(h[4 * i + 2]),
-                                 glm::unpackHalf1x16(h[4 * i + 3]));
+  std::memcpy(g.normal_view.data(), normals.data(), n * sizeof(glm::vec4));
   g.camera.view = glm::dmat4(m.frame.view);
   g.camera.proj = glm::dmat4(m.frame.proj);
   g.camera.origin = m.origin;
