@@ -17,6 +17,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <vector>
@@ -54,30 +55,34 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
 };
 
-const std::map<std::string, penumbra::scene::DebugView>& views() {
-  using penumbra::scene::DebugView;
-  static const std::map<std::string, DebugView> v = {{"lit", DebugView::lit},
-                                                     {"shadow_factor", DebugView::shadow_factor},
-                                                     {"cascades", DebugView::cascades},
-                                                     {"contact_mask", DebugView::contact_mask},
-                                                     {"texel_density", DebugView::texel_density},
-                                                     {"penumbra", DebugView::penumbra}};
-  return v;
+// The names of --view and --filter: the parameter table's choices, in their order.
+const std::vector<std::string>& choices(std::string_view key) {
+  static std::map<std::string, std::vector<std::string>> cache;
+  auto& out = cache[std::string(key)];
+  if (out.empty())
+    for (std::string_view c : penumbra::scene::param(key).choices) out.emplace_back(c);
+  return out;
+}
+const std::vector<std::string>& views() {
+  return choices("render.view");
+}
+const std::vector<std::string>& filters() {
+  return choices("shadows.filter");
 }
 
-const std::map<std::string, penumbra::scene::Filter>& filters() {
-  using penumbra::scene::Filter;
-  static const std::map<std::string, Filter> f = {{"hard", Filter::hard},
-                                                  {"pcf", Filter::pcf},
-                                                  {"pcss", Filter::pcss},
-                                                  {"poisson", Filter::poisson}};
-  return f;
+// The debug view of a --view name (checked against views() when the flag is read).
+penumbra::scene::DebugView view_of(const std::string& name) {
+  const auto& v = views();
+  return static_cast<penumbra::scene::DebugView>(std::find(v.begin(), v.end(), name) - v.begin());
 }
 
-template <class M>
-std::string keys(const M& m) {
+bool contains(const std::vector<std::string>& names, const std::string& name) {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+std::string keys(const std::vector<std::string>& names) {
   std::string s;
-  for (const auto& [k, v] : m) s += (s.empty() ? "" : ", ") + k;
+  for (const auto& k : names) s += (s.empty() ? "" : ", ") + k;
   return s;
 }
 
@@ -141,11 +146,11 @@ Options parse(int argc, char** argv) {
       o.out = value();
     else if (a == "--view") {
       o.view = value();
-      if (!views().count(o.view))
+      if (!contains(views(), o.view))
         throw Error("--view " + o.view + ": expected one of " + keys(views()));
     } else if (a == "--filter") {
       o.filter = value();
-      if (!filters().count(o.filter))
+      if (!contains(filters(), o.filter))
         throw Error("--filter " + o.filter + ": expected one of " + keys(filters()));
     } else if (a == "--size") {
       const std::string v = value();
@@ -243,11 +248,9 @@ int run_scripts(penumbra::gpu::Context& ctx, const Options& o) {
   return validation_result(ctx);
 }
 
-// Cycles a parameter through the names of `m` (V: views, F: filters).
-template <class M>
-void cycle(penumbra::runtime::Session& session, const std::string& key, const M& m) {
-  std::vector<std::string> names;
-  for (const auto& [name, value] : m) names.push_back(name);
+// Cycles a parameter through `names` (V: views, F: filters).
+void cycle(penumbra::runtime::Session& session, const std::string& key,
+           const std::vector<std::string>& names) {
   const auto it = std::find(names.begin(), names.end(), session.get(key));
   const size_t next = it == names.end() ? 0 : (size_t(it - names.begin()) + 1) % names.size();
   session.set(key, names[next]);
@@ -412,7 +415,7 @@ int run(int argc, char** argv) {
 
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
-  if (!o.filter.empty()) scene.shadows.filter = filters().at(o.filter);
+  if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
   const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);
 
   std::unique_ptr<penumbra::runtime::Window> window;
@@ -454,16 +457,16 @@ int run(int argc, char** argv) {
   std::vector<std::string> written;
   const std::string first_view = o.view.empty() ? "lit" : o.view;
   {
-    renderer.set_debug_view(views().at(first_view));
+    renderer.set_debug_view(view_of(first_view));
     renderer.render(frames);
     const fs::path png = out / (first_view + ".png");
     penumbra::render::write_png(png, renderer.width(), renderer.height(), renderer.read_rgba8());
     written.push_back(png.string());
   }
   if (o.view.empty()) {
-    for (const auto& [name, view] : views()) {
+    for (const auto& name : views()) {
       if (name == "lit") continue;
-      renderer.set_debug_view(view);
+      renderer.set_debug_view(view_of(name));
       renderer.render(frames);
       const fs::path png = out / (name + ".png");
       penumbra::render::write_png(png, renderer.width(), renderer.height(), renderer.read_rgba8());
@@ -491,7 +494,7 @@ int run(int argc, char** argv) {
 
   if (o.watch) {
     // Live: the first view's PNG is rewritten after every reload that rebuilt something.
-    renderer.set_debug_view(views().at(first_view));
+    renderer.set_debug_view(view_of(first_view));
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
     std::printf("\n[watch] watching %s (%zu directories); edit a shader, Ctrl-C stops\n",

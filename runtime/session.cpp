@@ -6,6 +6,7 @@
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/render/contact_shadows.hpp>
+#include <penumbra/scene/params.hpp>
 #include <sstream>
 
 namespace penumbra::runtime {
@@ -35,247 +36,6 @@ std::vector<std::string> short_names(const std::vector<std::string>& names) {
   std::vector<std::string> out;
   for (const auto& n : names) out.push_back(n.substr(0, n.find(' ')));
   return out;
-}
-
-std::string fmt(double v) {
-  std::ostringstream s;
-  s << v;
-  return s.str();
-}
-
-// ---- parameter values --------------------------------------------------------------------
-
-[[noreturn]] void bad(const std::string& key, const std::string& value, const std::string& want) {
-  throw Error(key + " " + (value.empty() ? "(empty)" : value) + ": expected " + want);
-}
-
-double number(const std::string& key, const std::string& v, double lo, double hi,
-              const std::string& range) {
-  char* end = nullptr;
-  const double x = std::strtod(v.c_str(), &end);
-  if (v.empty() || end != v.c_str() + v.size() || !std::isfinite(x) || x < lo || x > hi)
-    bad(key, v, "a number in " + range);
-  return x;
-}
-
-float number_f(const std::string& key, const std::string& v, double lo, double hi,
-               const std::string& range) {
-  return static_cast<float>(number(key, v, lo, hi, range));
-}
-
-float positive(const std::string& key, const std::string& v) {
-  const double x = number(key, v, 0.0, 1e30, "(0, inf)");
-  if (!(x > 0.0)) bad(key, v, "a number > 0");
-  return static_cast<float>(x);
-}
-
-long integer(const std::string& key, const std::string& v, long lo, long hi) {
-  char* end = nullptr;
-  const long x = std::strtol(v.c_str(), &end, 10);
-  if (v.empty() || end != v.c_str() + v.size() || x < lo || x > hi)
-    bad(key, v, "an integer in [" + std::to_string(lo) + ", " + std::to_string(hi) + "]");
-  return x;
-}
-
-bool boolean(const std::string& key, const std::string& v) {
-  if (v == "true" || v == "1" || v == "on") return true;
-  if (v == "false" || v == "0" || v == "off") return false;
-  bad(key, v, "true or false");
-}
-
-glm::vec3 vec3(const std::string& key, const std::string& v) {
-  std::string s = v;
-  for (char& c : s)
-    if (c == ',' || c == '[' || c == ']') c = ' ';
-  std::istringstream in(s);
-  std::vector<std::string> parts;
-  for (std::string p; in >> p;) parts.push_back(p);
-  if (parts.size() != 3) bad(key, v, "three numbers, e.g. 0,2,6");
-  glm::vec3 r;
-  for (int i = 0; i < 3; ++i) r[i] = number_f(key, parts[size_t(i)], -1e30, 1e30, "(-inf, inf)");
-  return r;
-}
-
-std::string vec3_text(glm::vec3 v) {
-  return fmt(v.x) + "," + fmt(v.y) + "," + fmt(v.z);
-}
-
-template <class E, size_t N>
-E enumerated(const std::string& key, const std::string& v, const E (&all)[N]) {
-  std::string names;
-  for (E e : all) {
-    if (scene::to_string(e) == v) return e;
-    names += (names.empty() ? "" : ", ") + std::string(scene::to_string(e));
-  }
-  bad(key, v, "one of " + names);
-}
-
-constexpr scene::Filter kFilters[] = {scene::Filter::hard, scene::Filter::pcf, scene::Filter::pcss,
-                                      scene::Filter::poisson};
-constexpr scene::CascadeFit kFits[] = {scene::CascadeFit::box, scene::CascadeFit::camera_sphere,
-                                       scene::CascadeFit::slice_sphere};
-constexpr scene::DebugView kViews[] = {
-    scene::DebugView::lit,          scene::DebugView::shadow_factor, scene::DebugView::cascades,
-    scene::DebugView::contact_mask, scene::DebugView::texel_density, scene::DebugView::penumbra};
-
-struct Param {
-  const char* key;
-  bool rebuild;  // changes what the renderer builds
-  void (*set)(scene::Scene&, const std::string& key, const std::string& value);
-  std::string (*get)(const scene::Scene&);
-};
-
-scene::Sun& sun(scene::Scene& s, const std::string& key) {
-  if (!s.sun) throw Error(key + ": the scene '" + s.name + "' has no [sun]");
-  return *s.sun;
-}
-std::string sun_get(const scene::Scene& s, std::string (*f)(const scene::Sun&)) {
-  return s.sun ? f(*s.sun) : "(no sun)";
-}
-
-// Parameters by their scene-file names (docs/scenes.md), with the file's ranges.
-const std::vector<Param>& params() {
-  using S = scene::Scene;
-  using K = const std::string&;
-  static const std::vector<Param> p = {
-      {"camera.position", false,
-       [](S& s, K k, K v) {
-         const auto x = vec3(k, v);
-         if (x == s.camera.target) bad(k, v, "a point other than camera.target");
-         s.camera.position = x;
-       },
-       [](const S& s) { return vec3_text(s.camera.position); }},
-      {"camera.target", false,
-       [](S& s, K k, K v) {
-         const auto x = vec3(k, v);
-         if (x == s.camera.position) bad(k, v, "a point other than camera.position");
-         s.camera.target = x;
-       },
-       [](const S& s) { return vec3_text(s.camera.target); }},
-      {"camera.fov_y", false,
-       [](S& s, K k, K v) {
-         s.camera.fov_y_degrees = number_f(k, v, 0.0, 180.0, "(0, 180)");
-         if (!(s.camera.fov_y_degrees > 0.0f && s.camera.fov_y_degrees < 180.0f))
-           bad(k, v, "a number in (0, 180)");
-       },
-       [](const S& s) { return fmt(s.camera.fov_y_degrees); }},
-      {"sun.direction", false,
-       [](S& s, K k, K v) {
-         const auto d = vec3(k, v);
-         if (glm::length(d) == 0.0f) bad(k, v, "a non-zero direction");
-         sun(s, k).direction = glm::normalize(d);
-       },
-       [](const S& s) {
-         return sun_get(s, [](const scene::Sun& x) { return vec3_text(x.direction); });
-       }},
-      {"sun.intensity", false,
-       [](S& s, K k, K v) { sun(s, k).intensity = number_f(k, v, 0.0, 1e30, "[0, inf)"); },
-       [](const S& s) { return sun_get(s, [](const scene::Sun& x) { return fmt(x.intensity); }); }},
-      {"sun.angular_diameter", false,
-       [](S& s, K k, K v) {
-         const float x = number_f(k, v, 0.0, 90.0, "[0, 90)");
-         if (!(x < 90.0f)) bad(k, v, "a number in [0, 90)");
-         sun(s, k).angular_diameter_degrees = x;
-       },
-       [](const S& s) {
-         return sun_get(s, [](const scene::Sun& x) { return fmt(x.angular_diameter_degrees); });
-       }},
-      {"sun.shadows", true, [](S& s, K k, K v) { sun(s, k).shadows = boolean(k, v); },
-       [](const S& s) {
-         return sun_get(
-             s, [](const scene::Sun& x) { return std::string(x.shadows ? "true" : "false"); });
-       }},
-      {"shadows.filter", false,
-       [](S& s, K k, K v) { s.shadows.filter = enumerated(k, v, kFilters); },
-       [](const S& s) { return std::string(scene::to_string(s.shadows.filter)); }},
-      {"shadows.cascades", true,
-       [](S& s, K k, K v) { s.shadows.cascades = static_cast<uint32_t>(integer(k, v, 1, 4)); },
-       [](const S& s) { return std::to_string(s.shadows.cascades); }},
-      {"shadows.lambda", false,
-       [](S& s, K k, K v) { s.shadows.split_lambda = number_f(k, v, 0.0, 1.0, "[0, 1]"); },
-       [](const S& s) { return fmt(s.shadows.split_lambda); }},
-      {"shadows.max_distance", false,
-       [](S& s, K k, K v) { s.shadows.max_distance = positive(k, v); },
-       [](const S& s) { return fmt(s.shadows.max_distance); }},
-      {"shadows.resolution", true,
-       [](S& s, K k, K v) {
-         s.shadows.resolution = static_cast<uint32_t>(integer(k, v, 16, 16384));
-       },
-       [](const S& s) { return std::to_string(s.shadows.resolution); }},
-      {"shadows.fit", false, [](S& s, K k, K v) { s.shadows.fit = enumerated(k, v, kFits); },
-       [](const S& s) { return std::string(scene::to_string(s.shadows.fit)); }},
-      {"shadows.pcf_radius", false,
-       [](S& s, K k, K v) { s.shadows.pcf_radius = static_cast<int>(integer(k, v, 0, 8)); },
-       [](const S& s) { return std::to_string(s.shadows.pcf_radius); }},
-      {"shadows.pcss_quality", false,
-       [](S& s, K k, K v) {
-         if (v == "low")
-           s.shadows.pcss_quality = 0;
-         else if (v == "medium")
-           s.shadows.pcss_quality = 1;
-         else if (v == "high")
-           s.shadows.pcss_quality = 2;
-         else if (v.size() == 1 && v[0] >= '0' && v[0] <= '2')
-           s.shadows.pcss_quality = v[0] - '0';
-         else
-           bad(k, v, "low, medium, high or 0, 1, 2");
-       },
-       [](const S& s) { return std::to_string(s.shadows.pcss_quality); }},
-      {"shadows.blend_band", false,
-       [](S& s, K k, K v) { s.shadows.blend_band = number_f(k, v, 0.0, 0.5, "[0, 0.5]"); },
-       [](const S& s) { return fmt(s.shadows.blend_band); }},
-      {"shadows.fade_band", false,
-       [](S& s, K k, K v) { s.shadows.fade_band = number_f(k, v, 0.0, 1.0, "[0, 1]"); },
-       [](const S& s) { return fmt(s.shadows.fade_band); }},
-      {"shadows.normal_offset_texels", false,
-       [](S& s, K k, K v) {
-         s.shadows.normal_offset_texels = number_f(k, v, 0.0, 1e30, "[0, inf)");
-       },
-       [](const S& s) { return fmt(s.shadows.normal_offset_texels); }},
-      {"shadows.slope_bias", false,
-       [](S& s, K k, K v) { s.shadows.slope_bias = number_f(k, v, 0.0, 1e30, "[0, inf)"); },
-       [](const S& s) { return fmt(s.shadows.slope_bias); }},
-      {"shadows.constant_bias", false,
-       [](S& s, K k, K v) { s.shadows.constant_bias = number_f(k, v, 0.0, 1e30, "[0, inf)"); },
-       [](const S& s) { return fmt(s.shadows.constant_bias); }},
-      {"shadows.reverse_z", true, [](S& s, K k, K v) { s.shadows.reverse_z = boolean(k, v); },
-       [](const S& s) { return std::string(s.shadows.reverse_z ? "true" : "false"); }},
-      {"contact.steps", true,
-       [](S& s, K k, K v) { s.contact.steps = static_cast<uint32_t>(integer(k, v, 0, scene::kMaxContactSteps)); },
-       [](const S& s) { return std::to_string(s.contact.steps); }},
-      {"contact.max_distance", true,
-       [](S& s, K k, K v) { s.contact.max_distance = positive(k, v); },
-       [](const S& s) { return fmt(s.contact.max_distance); }},
-      {"contact.thickness", true, [](S& s, K k, K v) { s.contact.thickness = positive(k, v); },
-       [](const S& s) { return fmt(s.contact.thickness); }},
-      {"contact.intensity", true,
-       [](S& s, K k, K v) { s.contact.intensity = number_f(k, v, 0.0, 1.0, "[0, 1]"); },
-       [](const S& s) { return fmt(s.contact.intensity); }},
-      {"render.view", false, [](S& s, K k, K v) { s.render.view = enumerated(k, v, kViews); },
-       [](const S& s) { return std::string(scene::to_string(s.render.view)); }},
-      {"render.exposure", false, [](S& s, K k, K v) { s.render.exposure = positive(k, v); },
-       [](const S& s) { return fmt(s.render.exposure); }},
-  };
-  return p;
-}
-
-const Param& param(const std::string& key) {
-  for (const auto& p : params())
-    if (key == p.key) return p;
-  // A "did you mean": the known key sharing the longest prefix.
-  const Param* best = nullptr;
-  size_t best_len = 0;
-  for (const auto& p : params()) {
-    const std::string k = p.key;
-    size_t n = 0;
-    while (n < k.size() && n < key.size() && k[n] == key[n]) ++n;
-    if (n > best_len) best_len = n, best = &p;
-  }
-  std::string msg = "unknown parameter '" + key + "'";
-  if (best && best_len >= 3) msg += " (did you mean '" + std::string(best->key) + "'?)";
-  std::string all;
-  for (const auto& p : params()) all += (all.empty() ? "" : ", ") + std::string(p.key);
-  throw Error(msg + "; known: " + all);
 }
 
 }  // namespace
@@ -355,26 +115,26 @@ void Session::resize(uint32_t width, uint32_t height) {
 
 std::vector<std::string> Session::keys() {
   std::vector<std::string> k;
-  for (const auto& p : params()) k.push_back(p.key);
+  for (const auto& p : scene::params())
+    if (p.settable()) k.emplace_back(p.key);
   return k;
 }
 
+// The parameter table (scene/params.hpp) parses, range-checks and applies the value; a bad value
+// leaves the scene untouched. Keys that change what is built rebuild the renderer.
 void Session::set(const std::string& key, const std::string& value) {
-  const Param& p = param(key);
-  if (!p.rebuild) {
-    // Validate on a copy: a bad value leaves the scene untouched.
-    scene::Scene copy = renderer_->scene();
-    p.set(copy, key, value);
-    p.set(renderer_->scene(), key, value);
+  const scene::Param& p = scene::param(key);
+  if (p.apply != scene::ParamApply::rebuild) {
+    scene::set_param(renderer_->scene(), key, value);
     return;
   }
   scene::Scene next = renderer_->scene();
-  p.set(next, key, value);
+  scene::set_param(next, key, value);
   rebuild(next, width_, height_);
 }
 
 std::string Session::get(const std::string& key) {
-  return param(key).get(renderer_->scene());
+  return scene::get_param(renderer_->scene(), key);
 }
 
 ReloadRecord Session::apply(const std::vector<FileChange>& changes) {

@@ -7,9 +7,11 @@
 #include <imgui_impl_vulkan.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
+#include <penumbra/scene/params.hpp>
 #include <string>
 #include <vector>
 
@@ -28,9 +30,17 @@ float as_float(Session& s, const std::string& key) {
   }
 }
 
-// Parameters that rebuild the renderer: applied when the slider is released, not while dragged.
-bool rebuilds(const std::string& key) {
-  return key.rfind("contact.", 0) == 0 || key == "shadows.cascades" || key == "shadows.resolution";
+// Keys that rebuild the renderer apply when the slider is released, not while it is dragged.
+bool rebuilds(const scene::Param& p) {
+  return p.apply == scene::ParamApply::rebuild;
+}
+
+// "pcf_radius##shadows.pcf_radius": the name shown, the key as ImGui's id.
+std::string label_of(const scene::Param& p) {
+  std::string label(p.name());
+  for (char& c : label)
+    if (c == '_') c = ' ';
+  return label + "##" + std::string(p.key);
 }
 
 }  // namespace
@@ -123,65 +133,59 @@ void Ui::panel(Session& session) {
       ImGui::Separator();
     }
 
-    // values: what get returns and set takes; labels (optional): what the list shows.
-    auto combo = [&](const char* label, const std::string& key,
-                     const std::vector<const char*>& values,
-                     const std::vector<const char*>& labels = {}) {
+    // One widget per settable row of the parameter table (scene/params.hpp): a combo for a
+    // choice, a checkbox for a bool, a slider over the row's widget range (or its closed range)
+    // for numbers; vectors only in "every parameter" below.
+    auto widget = [&](const scene::Param& p) {
+      const std::string key(p.key);
+      const std::string label = label_of(p);
       const std::string now = session.get(key);
-      const char* shown = now.c_str();
-      for (size_t i = 0; i < values.size() && !labels.empty(); ++i)
-        if (now == values[i]) shown = labels[i];
-      if (ImGui::BeginCombo(label, shown)) {
-        for (size_t i = 0; i < values.size(); ++i) {
-          const bool selected = now == values[i];
-          if (ImGui::Selectable(labels.empty() ? values[i] : labels[i], selected) && !selected)
-            set(session, key, values[i]);
+      switch (p.type) {
+        case scene::ParamType::choice:
+          if (ImGui::BeginCombo(label.c_str(), now.c_str())) {
+            for (std::string_view choice : p.choices) {
+              const bool selected = now == choice;
+              if (ImGui::Selectable(std::string(choice).c_str(), selected) && !selected)
+                set(session, key, std::string(choice));
+            }
+            ImGui::EndCombo();
+          }
+          break;
+        case scene::ParamType::boolean: {
+          bool v = now == "true";
+          if (ImGui::Checkbox(label.c_str(), &v)) set(session, key, v ? "true" : "false");
+          break;
         }
-        ImGui::EndCombo();
+        case scene::ParamType::integer: {
+          int v = static_cast<int>(as_float(session, key));
+          const bool moved = ImGui::SliderInt(label.c_str(), &v, int(p.range.lo), int(p.range.hi));
+          if (rebuilds(p) ? ImGui::IsItemDeactivatedAfterEdit() : moved)
+            set(session, key, std::to_string(v));
+          break;
+        }
+        case scene::ParamType::number: {
+          const scene::ParamRange r = p.widget.lo < p.widget.hi ? p.widget : p.range;
+          if (!std::isfinite(r.lo) || !std::isfinite(r.hi)) break;
+          float v = as_float(session, key);
+          const bool moved =
+              ImGui::SliderFloat(label.c_str(), &v, float(r.lo), float(r.hi), "%.4g");
+          if (rebuilds(p) ? ImGui::IsItemDeactivatedAfterEdit() : moved) {
+            char text[64];
+            std::snprintf(text, sizeof text, "%.9g", static_cast<double>(v));
+            set(session, key, text);
+          }
+          break;
+        }
+        default:
+          break;
       }
     };
-    combo("view", "render.view",
-          {"lit", "shadow_factor", "cascades", "contact_mask", "texel_density", "penumbra"});
-    combo("filter", "shadows.filter", {"hard", "pcf", "pcss", "poisson"});
-    combo("pcss quality", "shadows.pcss_quality", {"0", "1", "2"}, {"low", "medium", "high"});
-    combo("cascade fit", "shadows.fit", {"box", "camera_sphere", "slice_sphere"});
-
-    auto slider = [&](const char* label, const std::string& key, float lo, float hi,
-                      const char* format = "%.4g") {
-      float v = as_float(session, key);
-      const bool moved = ImGui::SliderFloat(label, &v, lo, hi, format);
-      if (rebuilds(key) ? ImGui::IsItemDeactivatedAfterEdit() : moved) {
-        char text[64];
-        std::snprintf(text, sizeof text, "%.9g", static_cast<double>(v));
-        set(session, key, text);
-      }
-    };
-    auto islider = [&](const char* label, const std::string& key, int lo, int hi) {
-      int v = static_cast<int>(as_float(session, key));
-      const bool moved = ImGui::SliderInt(label, &v, lo, hi);
-      if (rebuilds(key) ? ImGui::IsItemDeactivatedAfterEdit() : moved)
-        set(session, key, std::to_string(v));
-    };
-    if (ImGui::CollapsingHeader("shadows", ImGuiTreeNodeFlags_DefaultOpen)) {
-      islider("pcf radius", "shadows.pcf_radius", 0, 8);
-      slider("slope bias", "shadows.slope_bias", 0.0f, 8.0f);
-      slider("constant bias", "shadows.constant_bias", 0.0f, 0.01f, "%.5f");
-      slider("normal offset", "shadows.normal_offset_texels", 0.0f, 4.0f);
-      islider("cascades", "shadows.cascades", 1, 4);
-      slider("lambda", "shadows.lambda", 0.0f, 1.0f);
-      slider("max distance", "shadows.max_distance", 1.0f, 500.0f);
-      slider("blend band", "shadows.blend_band", 0.0f, 0.5f);
-      slider("fade band", "shadows.fade_band", 0.0f, 1.0f);
-      slider("sun diameter", "sun.angular_diameter", 0.0f, 10.0f);
-      slider("sun intensity", "sun.intensity", 0.0f, 20.0f);
+    for (const char* table : {"render", "shadows", "sun", "contact", "camera"}) {
+      const bool open = std::string_view(table) != "camera";
+      if (!ImGui::CollapsingHeader(table, open ? ImGuiTreeNodeFlags_DefaultOpen : 0)) continue;
+      for (const scene::Param* p : scene::params_of(table))
+        if (p->settable()) widget(*p);
     }
-    if (ImGui::CollapsingHeader("contact shadows", ImGuiTreeNodeFlags_DefaultOpen)) {
-      islider("steps", "contact.steps", 0, int(scene::kMaxContactSteps));
-      slider("max distance##contact", "contact.max_distance", 0.0f, 2.0f);
-      slider("thickness", "contact.thickness", 0.0f, 0.5f);
-      slider("intensity", "contact.intensity", 0.0f, 1.0f);
-    }
-    slider("exposure", "render.exposure", 0.0f, 8.0f);
     if (ImGui::CollapsingHeader("every parameter (Enter applies)")) {
       for (const std::string& key : Session::keys()) {
         char text[128];

@@ -32,6 +32,7 @@ struct FrameGpu {
   uvec4 counts;
   LightGpu spots[kMaxSpotLights];
   LightGpu points[kMaxPointLights];
+  vec4 pcss;  // x: PCSS confidence fraction
 };
 
 struct DrawPush {

@@ -39,7 +39,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   params.max_search_texels = shadow.pcss.y;
   params.min_filter_texels = shadow.pcss.z;
   params.max_filter_texels = shadow.pcss.w;
-  params.confidence_fraction = 0.1;
+  params.confidence_fraction = frame.pcss.x;
   // The penumbra debug view shows the PCSS estimate whatever the filter: the width the sun's
   // angular size would give here.
   if (frame.mode.w == kViewPenumbra) {

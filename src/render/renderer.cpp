@@ -12,6 +12,7 @@
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/render/contact_shadows.hpp>
+#include <penumbra/render/frame_pack.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/shadow/cascades.hpp>
@@ -22,8 +23,6 @@
 
 namespace penumbra::render {
 namespace fs = std::filesystem;
-static_assert(scene::kMaxContactSteps == kContactMaxSteps,
-              "the scene file's contact step range must be what the contact pass accepts");
 
 namespace {
 
@@ -38,36 +37,6 @@ struct GpuMesh {
   gpu::Buffer vertices, indices;
   uint32_t index_count = 0;
 };
-
-struct Draw {
-  uint32_t mesh;
-  DrawPush push;
-  bool masked;
-  bool casts;
-};
-
-glm::dvec3 to_d(glm::vec3 v) {
-  return glm::dvec3(v);
-}
-
-// Reverse-Z (or standard) perspective for the camera, Vulkan clip z in [0, 1], y down in NDC
-// handled by the viewport convention below (we flip y in the projection so +Y is up on screen).
-glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_z) {
-  const double t = std::tan(glm::radians(double(c.fov_y_degrees)) * 0.5);
-  const double n = c.near, f = c.far;
-  glm::dmat4 p(0.0);
-  p[0][0] = 1.0 / (aspect * t);
-  p[1][1] = -1.0 / t;  // Vulkan framebuffer y grows downward: flip so world up is screen up
-  if (reverse_z) {
-    p[2][2] = n / (f - n);
-    p[3][2] = f * n / (f - n);
-  } else {
-    p[2][2] = f / (n - f);
-    p[3][2] = f * n / (n - f);
-  }
-  p[2][3] = -1.0;
-  return glm::mat4(p);
-}
 
 VkVertexInputBindingDescription vertex_binding() {
   return {0, sizeof(scene::Vertex), VK_VERTEX_INPUT_RATE_VERTEX};
@@ -107,20 +76,6 @@ std::vector<float> unpack_halves(const std::vector<std::byte>& bytes) {
   return out;
 }
 
-uint32_t filter_index(scene::Filter f) {
-  switch (f) {
-    case scene::Filter::hard:
-      return 0;
-    case scene::Filter::pcf:
-      return 1;
-    case scene::Filter::pcss:
-      return 2;
-    case scene::Filter::poisson:
-      return 3;
-  }
-  return 1;
-}
-
 }  // namespace
 
 std::string BuildReport::to_string() const {
@@ -154,12 +109,10 @@ struct Renderer::Impl {
 
   shader::ProgramRegistry registry;  // every pipeline's sources, for hot reload
   std::vector<GpuMesh> meshes;
-  std::vector<Draw> draws;
 
   // Uniform data.
   gpu::Buffer frame_ubo, shadow_ubo, spot_ubo, point_ubo;
-  FrameGpu frame{};
-  glm::dvec3 origin{0.0};
+  PackedFrame packed;  // this frame's GPU data (pack_frame)
 
   // Images.
   gpu::Image depth, normal, hdr, info, ldr;
@@ -185,10 +138,6 @@ struct Renderer::Impl {
   std::unique_ptr<ContactShadowPass> contact;
   gpu::TimestampPool timestamps;
   gpu::CommandRecorder recorder;
-
-  shadow::CascadeSet cascades;
-  std::vector<shadow::SpotShadow> spot_shadows;
-  std::vector<shadow::PointShadow> point_shadows;
 
   Impl(gpu::Context& c, const scene::Scene& s, const RendererOptions& o)
       : ctx(c),
@@ -254,25 +203,6 @@ struct Renderer::Impl {
       g.indices.write(std::as_bytes(std::span(m.indices)));
       g.index_count = static_cast<uint32_t>(m.indices.size());
       meshes.push_back(std::move(g));
-    }
-  }
-
-  void build_draws() {
-    draws.clear();
-    for (const auto& inst : scene.instances) {
-      const auto& mat = scene.materials.at(inst.material);
-      Draw d{};
-      d.mesh = inst.mesh;
-      // Camera-relative: translate by -origin in double before rounding to float.
-      glm::dmat4 model = glm::dmat4(inst.transform);
-      model[3] -= glm::dvec4(origin, 0.0);
-      d.push.model = glm::mat4(model);
-      d.masked = mat.alpha == scene::AlphaMode::masked;
-      d.push.albedo = glm::vec4(mat.albedo, d.masked ? 0.0f : 1.0f);
-      d.push.mask = glm::vec4(d.masked ? float(int(mat.mask)) : 0.0f, mat.alpha_cutoff,
-                              mat.mask_scale.x, mat.mask_scale.y);
-      d.casts = inst.casts_shadows;
-      draws.push_back(d);
     }
   }
 
@@ -482,15 +412,6 @@ struct Renderer::Impl {
     report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces");
   }
 
-  ContactShadowSettings contact_settings() const {
-    ContactShadowSettings c;
-    c.step_count = scene.contact.steps;
-    c.max_distance = scene.contact.max_distance;
-    c.thickness = scene.contact.thickness;
-    c.intensity = scene.contact.intensity;
-    return c;
-  }
-
   // Contact shadows march toward the sun; without a sun (or with 0 steps) there is no pass.
   // The pass compiles and owns its two compute pipelines; the registry record makes an edit to
   // its shaders (or their includes) recreate it, and rebinds its mask where it is read.
@@ -499,7 +420,7 @@ struct Renderer::Impl {
     ContactShadowPassDesc desc;
     desc.width = width;
     desc.height = height;
-    desc.settings = contact_settings();
+    desc.settings = scene.contact;
     desc.shader_dir = shader_dir;
     if (desc.settings.step_count == 0) return;
     add_pipeline("contact-shadows (depth resolve + march)",
@@ -539,8 +460,8 @@ struct Renderer::Impl {
     const auto cam = shadow_camera();
     f.camera = ContactCamera::from(
         cam, reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard);
-    f.light_dir_view = to_contact_view(cam, -to_d(scene.sun->direction));
-    f.frame = frame.mode.x;
+    f.light_dir_view = to_contact_view(cam, -glm::dvec3(scene.sun->direction));
+    f.frame = packed.frame.mode.x;
     contact->record(cmd, depth, normal, f);
   }
 
@@ -637,131 +558,21 @@ struct Renderer::Impl {
 
   // ---- per frame -------------------------------------------------------------------------
 
-  shadow::Camera shadow_camera() const {
-    const auto& c = scene.camera;
-    shadow::Camera sc;
-    sc.position = to_d(c.position);
-    sc.forward = to_d(c.target - c.position);
-    sc.up = to_d(c.up);
-    sc.fov_y = glm::radians(double(c.fov_y_degrees));
-    sc.aspect = double(width) / double(height);
-    sc.near = c.near;
-    sc.far = c.far;
-    return sc;
-  }
+  shadow::Camera shadow_camera() const { return frame_camera(scene, width, height); }
 
-  shadow::Aabb bounds(const scene::Bounds& b) const {
-    shadow::Aabb a;
-    a.min = to_d(b.min);
-    a.max = to_d(b.max);
-    return a;
-  }
-
+  // The frame's GPU data from pack_frame (pure, tested without a GPU), uploaded.
   void update(uint32_t frame_index) {
-    const auto& c = scene.camera;
-    origin = to_d(c.position);
-    build_draws();
-    const double aspect = double(width) / double(height);
-    const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), c.target - c.position, c.up);
-    const glm::mat4 proj = camera_projection(c, aspect, reverse_z);
-    frame = FrameGpu{};
-    frame.view = view;
-    frame.proj = proj;
-    frame.view_proj = proj * view;
-    frame.inv_view_proj = glm::inverse(frame.view_proj);
-    frame.camera_position = glm::vec4(0, 0, 0, 1);
-    frame.camera_forward = glm::vec4(glm::normalize(c.target - c.position), 0);
-    frame.viewport =
-        glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
-    frame.projection =
-        glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
-    const auto& sh = scene.shadows;
-    frame.bias = glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias,
-                           sh.constant_bias * 20.0f);
-    frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f,
-                                    std::max(1.0f, float(sh.pcf_radius) + 0.5f));
-    frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
-                            uint32_t(scene.render.view));
-    frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);
-    if (scene.sun) {
-      frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);
-      frame.sun_color = glm::vec4(scene.sun->color, scene.sun->shadows ? 1.0f : 0.0f);
-    }
-    // Local lights.
-    spot_shadows.clear();
-    point_shadows.clear();
-    uint32_t spot_maps_used = 0, point_maps_used = 0;
-    std::vector<shadow::SpotShadowGpu> spot_gpu(kMaxSpotLights);
-    std::vector<shadow::PointShadowGpu> point_gpu(kMaxPointLights);
-    uint32_t spots = 0;
-    for (const auto& s : scene.spots) {
-      if (spots == kMaxSpotLights) break;
-      LightGpu& l = frame.spots[spots++];
-      l.position_range = glm::vec4(glm::vec3(to_d(s.position) - origin), s.range);
-      l.direction_cos =
-          glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
-      l.color_intensity = glm::vec4(s.color, s.intensity);
-      l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, 0, 0);
-      if (s.shadows && spot_maps_used < req.spot_shadow_maps) {
-        shadow::SpotLight sl;
-        sl.position = to_d(s.position);
-        sl.direction = to_d(s.direction);
-        sl.outer_angle = glm::radians(double(s.outer_degrees));
-        sl.range = s.range;
-        shadow::SpotShadowConfig cfg;
-        cfg.resolution = s.resolution;
-        cfg.depth =
-            reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
-        spot_shadows.push_back(shadow::compute_spot_shadow(sl, cfg));
-        spot_gpu[spot_maps_used] = shadow::pack_spot_shadow(spot_shadows.back(), origin);
-        l.params.y = float(spot_maps_used++);
-      }
-    }
-    uint32_t points = 0;
-    for (const auto& p : scene.points) {
-      if (points == kMaxPointLights) break;
-      LightGpu& l = frame.points[points++];
-      l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
-      l.color_intensity = glm::vec4(p.color, p.intensity);
-      l.params = glm::vec4(0, -1.0f, 0, 0);
-      if (p.shadows && point_maps_used < req.point_shadow_cubes) {
-        shadow::PointLight pl;
-        pl.position = to_d(p.position);
-        pl.range = p.range;
-        shadow::PointShadowConfig cfg;
-        cfg.resolution = p.resolution;
-        cfg.depth =
-            reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
-        point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
-        point_gpu[point_maps_used] = shadow::pack_point_shadow(point_shadows.back(), origin);
-        l.params.y = float(point_maps_used++);
-      }
-    }
-    frame.counts = glm::uvec4(spots, points, contact_active() ? 1u : 0u, 0u);
-    frame_ubo.write(std::as_bytes(std::span(&frame, 1)));
-    if (req.spot_shadow_maps) spot_ubo.write(std::as_bytes(std::span(spot_gpu)));
-    if (req.point_shadow_cubes) point_ubo.write(std::as_bytes(std::span(point_gpu)));
-
-    if (req.sun_shadows) {
-      shadow::ShadowConfig cfg;
-      cfg.cascade_count = req.cascades;
-      cfg.split_lambda = sh.split_lambda;
-      cfg.max_distance = sh.max_distance;
-      cfg.resolution = sh.resolution;
-      cfg.fit = static_cast<shadow::CascadeFit>(static_cast<uint32_t>(sh.fit));
-      cfg.depth =
-          reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
-      cfg.depth_clamp = ctx.info().depth_clamp;
-      cfg.blend_fraction = sh.blend_band;
-      cfg.fade_fraction = sh.fade_band;
-      shadow::DirectionalLight light;
-      light.direction = to_d(scene.sun->direction);
-      light.angular_diameter = glm::radians(double(scene.sun->angular_diameter_degrees));
-      cascades =
-          shadow::compute_cascades(cfg, shadow_camera(), light, bounds(scene.world_bounds()));
-      const auto gpu_shadow = shadow::pack_shadow(cascades, origin);
-      shadow_ubo.write(std::as_bytes(std::span(&gpu_shadow, 1)));
-    }
+    FrameCaps caps;
+    caps.depth_clamp = ctx.info().depth_clamp;
+    caps.contact_pass = contact_active();
+    caps.sun_shadows = req.sun_shadows;
+    caps.spot_shadow_maps = req.spot_shadow_maps;
+    caps.point_shadow_cubes = req.point_shadow_cubes;
+    packed = pack_frame(scene, width, height, caps, frame_index);
+    frame_ubo.write(std::as_bytes(std::span(&packed.frame, 1)));
+    if (req.spot_shadow_maps) spot_ubo.write(std::as_bytes(std::span(packed.spot_gpu)));
+    if (req.point_shadow_cubes) point_ubo.write(std::as_bytes(std::span(packed.point_gpu)));
+    if (req.sun_shadows) shadow_ubo.write(std::as_bytes(std::span(&packed.shadow, 1)));
   }
 
   void draw_meshes(VkCommandBuffer cmd, const gpu::PipelineLayout& layout, VkPipeline opaque,
@@ -770,7 +581,7 @@ struct Renderer::Impl {
       VkPipeline p = pass == 0 ? opaque : masked;
       if (p == VK_NULL_HANDLE) continue;
       vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
-      for (const auto& d : draws) {
+      for (const auto& d : packed.draws) {
         if (d.masked != (pass == 1) || (casters_only && !d.casts)) continue;
         const GpuMesh& m = meshes[d.mesh];
         if (m.index_count == 0) continue;
@@ -867,16 +678,16 @@ struct Renderer::Impl {
       mark("sun-shadow");
     }
     if (req.spot_shadow_maps) {
-      render_shadow_layers(cmd, spot_maps[0], uint32_t(spot_shadows.size()), *spot_layout, spot_set,
-                           spot_opaque.get(), spot_masked.get(), true,
+      render_shadow_layers(cmd, spot_maps[0], uint32_t(packed.spot_shadows.size()), *spot_layout,
+                           spot_set, spot_opaque.get(), spot_masked.get(), true,
                            [](uint32_t i) { return glm::uvec4(i, 0, 0, 0); });
       mark("spot-shadow");
     }
     if (req.point_shadow_cubes) {
       // Layer 6·i + f is face f of light i. One pipeline draws opaque and masked casters: its
       // fragment stage writes the linear distance and alpha-tests.
-      render_shadow_layers(cmd, point_maps[0], 6 * uint32_t(point_shadows.size()), *point_layout,
-                           point_set, point_pipe.get(), point_pipe.get(), false,
+      render_shadow_layers(cmd, point_maps[0], 6 * uint32_t(packed.point_shadows.size()),
+                           *point_layout, point_set, point_pipe.get(), point_pipe.get(), false,
                            [](uint32_t l) { return glm::uvec4(l % 6, l / 6, 0, 0); });
       mark("point-shadow");
     }
@@ -1013,9 +824,9 @@ GBuffer Renderer::read_gbuffer() {
   const std::vector<float> normals = unpack_halves(m.normal.download());
   g.normal_view.resize(n);
   std::memcpy(g.normal_view.data(), normals.data(), n * sizeof(glm::vec4));
-  g.camera.view = glm::dmat4(m.frame.view);
-  g.camera.proj = glm::dmat4(m.frame.proj);
-  g.camera.origin = m.origin;
+  g.camera.view = glm::dmat4(m.packed.frame.view);
+  g.camera.proj = glm::dmat4(m.packed.frame.proj);
+  g.camera.origin = m.packed.origin;
   g.camera.reverse_z = m.reverse_z;
   return g;
 }

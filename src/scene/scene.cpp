@@ -72,7 +72,7 @@ Scene::Requirements Scene::requirements() const {
   for (const SpotLight& spot : spots) r.spot_shadow_maps += spot.shadows ? 1 : 0;
   for (const PointLight& point : points) r.point_shadow_cubes += point.shadows ? 1 : 0;
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
-  r.contact_pass = contact.steps > 0 && has_light;
+  r.contact_pass = contact.step_count > 0 && has_light;
   for (const Instance& instance : instances) {
     if (instance.material < materials.size() &&
         materials[instance.material].alpha == AlphaMode::masked) {

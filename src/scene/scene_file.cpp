@@ -16,6 +16,7 @@
 #include <map>
 #include <optional>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
 #include <string>
@@ -120,24 +121,7 @@ std::string join(const std::vector<std::string_view>& words) {
   return out;
 }
 
-// An allowed numeric range; an infinite bound is open-ended.
-struct Range {
-  double lo = -kInf;
-  double hi = kInf;
-  bool lo_open = false;
-  bool hi_open = false;
-
-  bool contains(double v) const {
-    return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
-  }
-  std::string text() const {
-    if (hi == kInf && lo == -kInf) return "finite";
-    if (hi == kInf) return std::string(lo_open ? "> " : ">= ") + format_number(lo);
-    if (lo == -kInf) return std::string(hi_open ? "< " : "<= ") + format_number(hi);
-    return std::string(lo_open ? "in (" : "in [") + format_number(lo) + ", " + format_number(hi) +
-           (hi_open ? ")" : "]");
-  }
-};
+using Range = ParamRange;
 
 constexpr Range kAny{};
 constexpr Range kPositive{0.0, kInf, true, false};
@@ -153,26 +137,12 @@ constexpr Range open(double lo, double hi) {
 template <class E>
 using Names = std::vector<std::pair<std::string_view, E>>;
 
-const Names<Filter> kFilters{{"hard", Filter::hard},
-                             {"pcf", Filter::pcf},
-                             {"pcss", Filter::pcss},
-                             {"poisson", Filter::poisson}};
-const Names<CascadeFit> kFits{{"box", CascadeFit::box},
-                              {"camera_sphere", CascadeFit::camera_sphere},
-                              {"slice_sphere", CascadeFit::slice_sphere}};
-const Names<DebugView> kViews{{"lit", DebugView::lit},
-                              {"shadow_factor", DebugView::shadow_factor},
-                              {"cascades", DebugView::cascades},
-                              {"contact_mask", DebugView::contact_mask},
-                              {"texel_density", DebugView::texel_density},
-                              {"penumbra", DebugView::penumbra}};
 const Names<AlphaMode> kAlphaModes{{"opaque", AlphaMode::opaque}, {"masked", AlphaMode::masked}};
 const Names<MaskPattern> kMasks{{"none", MaskPattern::none},
                                 {"texture", MaskPattern::texture},
                                 {"stripes", MaskPattern::stripes},
                                 {"checker", MaskPattern::checker},
                                 {"circles", MaskPattern::circles}};
-const Names<int> kQualities{{"low", 0}, {"medium", 1}, {"high", 2}};
 
 template <class E>
 std::string_view name_of(const Names<E>& names, E value) {
@@ -446,14 +416,64 @@ std::string indexed_label(std::string_view key, std::size_t index) {
   return "[[" + std::string(key) + "]] #" + std::to_string(index + 1);
 }
 
-void read_camera(const Reader& r, Camera& camera) {
-  r.check_keys({"position", "target", "up", "fov_y", "near", "far"});
-  camera.position = r.vec3("position", camera.position);
-  camera.target = r.vec3("target", camera.target);
-  if (const auto up = r.opt_direction("up")) camera.up = *up;
-  camera.fov_y_degrees = r.numberf("fov_y", camera.fov_y_degrees, open(0.0, 180.0));
-  camera.near = r.numberf("near", camera.near, kPositive);
-  camera.far = r.numberf("far", camera.far, kPositive);
+// The rows of the parameter table (params.hpp) that `table` holds, read into the scene with the
+// Reader's typed, range-checked accessors; then the rows' cross-key checks (unless the table's
+// own code makes them, with messages of its own).
+std::vector<std::string_view> table_keys(std::string_view table,
+                                         std::vector<std::string_view> extra = {}) {
+  for (const Param* p : params_of(table)) extra.push_back(p->name());
+  return extra;
+}
+
+void read_param(const Reader& r, const Param& p, Scene& scene) {
+  const std::string_view key = p.name();
+  const toml::node* node = r.get(key);
+  if (node == nullptr) return;
+  switch (p.type) {
+    case ParamType::number:
+      p.set(scene, *r.opt_number(key, p.range));
+      break;
+    case ParamType::integer:
+      p.set(scene, *r.opt_integer(key, std::int64_t(p.range.lo), std::int64_t(p.range.hi)));
+      break;
+    case ParamType::boolean:
+      p.set(scene, *r.opt_bool(key));
+      break;
+    case ParamType::choice: {
+      if (p.ordinal_alias && node->is_integer()) {
+        p.set(scene, *r.opt_integer(key, 0, std::int64_t(p.choices.size()) - 1));
+        break;
+      }
+      Names<std::int64_t> names;
+      for (std::size_t i = 0; i < p.choices.size(); ++i)
+        names.emplace_back(p.choices[i], std::int64_t(i));
+      p.set(scene, *r.opt_enum(key, names));
+      break;
+    }
+    case ParamType::vec3:
+      p.set(scene, *r.opt_vec<3>(key, p.range));
+      break;
+    case ParamType::direction:
+      p.set(scene, glm::dvec3(*r.opt_direction(key)));
+      break;
+  }
+}
+
+void read_table(const Reader& r, std::string_view table, Scene& scene, bool checks = true) {
+  for (const Param* p : params_of(table))
+    if (!p->custom_read) read_param(r, *p, scene);
+  if (!checks) return;
+  for (const Param* p : params_of(table)) {
+    if (p->check == nullptr || !r.has(p->name())) continue;
+    const std::string violation = p->check(scene);
+    if (!violation.empty()) r.fail_at(r.get(p->name()), violation);
+  }
+}
+
+void read_camera(const Reader& r, Scene& scene) {
+  r.check_keys(table_keys("camera"));
+  read_table(r, "camera", scene, false);
+  const Camera& camera = scene.camera;
   if (!(camera.far > camera.near)) {
     r.fail_at(r.get(r.has("far") ? "far" : "near"),
               r.name("far") + " = " + format_number(camera.far) +
@@ -470,9 +490,10 @@ void read_camera(const Reader& r, Camera& camera) {
   }
 }
 
-void read_sun(const Reader& r, Sun& sun) {
-  r.check_keys(
-      {"direction", "elevation", "azimuth", "color", "intensity", "angular_diameter", "shadows"});
+void read_sun(const Reader& r, Scene& scene) {
+  scene.sun = Sun{};
+  Sun& sun = *scene.sun;
+  r.check_keys(table_keys("sun", {"elevation", "azimuth"}));
   const bool angles = r.has("elevation") || r.has("azimuth");
   if (r.has("direction") && angles) {
     r.fail_key("direction", "give either 'direction' or 'elevation' and 'azimuth', not both");
@@ -490,11 +511,7 @@ void read_sun(const Reader& r, Sun& sun) {
   } else {
     r.missing("direction", "elevation");
   }
-  sun.color = r.vec3("color", sun.color, kNonNegative);
-  sun.intensity = r.numberf("intensity", sun.intensity, kNonNegative);
-  sun.angular_diameter_degrees =
-      r.numberf("angular_diameter", sun.angular_diameter_degrees, Range{0.0, 90.0, false, true});
-  sun.shadows = r.boolean("shadows", sun.shadows);
+  read_table(r, "sun", scene);
 }
 
 void read_spot(const Reader& r, SpotLight& spot) {
@@ -542,45 +559,10 @@ void read_point(const Reader& r, PointLight& point) {
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
 }
 
-void read_shadows(const Reader& r, ShadowSettings& s) {
-  r.check_keys({"filter", "cascades", "lambda", "max_distance", "resolution", "fit", "pcf_radius",
-                "pcss_quality", "blend_band", "fade_band", "normal_offset_texels", "slope_bias",
-                "constant_bias", "reverse_z"});
-  s.filter = r.opt_enum("filter", kFilters).value_or(s.filter);
-  s.cascades = r.uint("cascades", s.cascades, 1, 4);
-  s.split_lambda = r.numberf("lambda", s.split_lambda, kUnit);
-  s.max_distance = r.numberf("max_distance", s.max_distance, kPositive);
-  s.resolution = r.uint("resolution", s.resolution, 16, 16384);
-  s.fit = r.opt_enum("fit", kFits).value_or(s.fit);
-  s.pcf_radius = static_cast<int>(r.opt_integer("pcf_radius", 0, 8).value_or(s.pcf_radius));
-  if (const toml::node* q = r.get("pcss_quality"); q != nullptr && q->is_integer()) {
-    s.pcss_quality = static_cast<int>(*r.opt_integer("pcss_quality", 0, 2));
-  } else {
-    s.pcss_quality = r.opt_enum("pcss_quality", kQualities).value_or(s.pcss_quality);
-  }
-  s.blend_band = r.numberf("blend_band", s.blend_band, closed(0.0, 0.5));
-  s.fade_band = r.numberf("fade_band", s.fade_band, kUnit);
-  s.normal_offset_texels = r.numberf("normal_offset_texels", s.normal_offset_texels, kNonNegative);
-  s.slope_bias = r.numberf("slope_bias", s.slope_bias, kNonNegative);
-  s.constant_bias = r.numberf("constant_bias", s.constant_bias, kNonNegative);
-  s.reverse_z = r.boolean("reverse_z", s.reverse_z);
-}
-
-void read_contact(const Reader& r, ContactSettings& c) {
-  r.check_keys({"steps", "max_distance", "thickness", "intensity"});
-  c.steps = r.uint("steps", c.steps, 0, kMaxContactSteps);
-  c.max_distance = r.numberf("max_distance", c.max_distance, kPositive);
-  c.thickness = r.numberf("thickness", c.thickness, kPositive);
-  c.intensity = r.numberf("intensity", c.intensity, kUnit);
-}
-
-void read_render(const Reader& r, RenderSettings& s) {
-  r.check_keys({"width", "height", "frames", "view", "exposure"});
-  s.width = r.uint("width", s.width, 16, 16384);
-  s.height = r.uint("height", s.height, 16, 16384);
-  s.frames = r.uint("frames", s.frames, 1, 1000000);
-  s.view = r.opt_enum("view", kViews).value_or(s.view);
-  s.exposure = r.numberf("exposure", s.exposure, kPositive);
+// [shadows], [contact] and [render] are the parameter table's rows and nothing else.
+void read_plain_table(const Reader& r, std::string_view table, Scene& scene) {
+  r.check_keys(table_keys(table));
+  read_table(r, table, scene);
 }
 
 fs::path resolve(const Context& ctx, const std::string& path) {
@@ -991,12 +973,10 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   scene.name = top.opt_string("name").value_or(name_for_errors.stem().string());
 
   if (const toml::table* t = single_table(ctx, root, "camera")) {
-    read_camera(Reader(ctx, *t, "[camera]"), scene.camera);
+    read_camera(Reader(ctx, *t, "[camera]"), scene);
   }
   if (const toml::table* t = single_table(ctx, root, "sun")) {
-    Sun sun;
-    read_sun(Reader(ctx, *t, "[sun]"), sun);
-    scene.sun = sun;
+    read_sun(Reader(ctx, *t, "[sun]"), scene);
   }
   const auto spots = table_array(ctx, root, "spot");
   for (std::size_t i = 0; i < spots.size(); ++i) {
@@ -1011,13 +991,13 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
     scene.points.push_back(point);
   }
   if (const toml::table* t = single_table(ctx, root, "shadows")) {
-    read_shadows(Reader(ctx, *t, "[shadows]"), scene.shadows);
+    read_plain_table(Reader(ctx, *t, "[shadows]"), "shadows", scene);
   }
   if (const toml::table* t = single_table(ctx, root, "contact")) {
-    read_contact(Reader(ctx, *t, "[contact]"), scene.contact);
+    read_plain_table(Reader(ctx, *t, "[contact]"), "contact", scene);
   }
   if (const toml::table* t = single_table(ctx, root, "render")) {
-    read_render(Reader(ctx, *t, "[render]"), scene.render);
+    read_plain_table(Reader(ctx, *t, "[render]"), "render", scene);
   }
 
   Builder builder(ctx, scene);
@@ -1055,14 +1035,21 @@ Scene load_scene(const std::filesystem::path& file) {
   return parse_scene(text.str(), file, file.parent_path());
 }
 
+namespace {
+std::string_view choice_name(std::string_view key, std::size_t ordinal) {
+  const Param& p = param(key);
+  return ordinal < p.choices.size() ? p.choices[ordinal] : std::string_view("?");
+}
+}  // namespace
+
 std::string_view to_string(Filter filter) {
-  return name_of(kFilters, filter);
+  return choice_name("shadows.filter", std::size_t(filter));
 }
 std::string_view to_string(CascadeFit fit) {
-  return name_of(kFits, fit);
+  return choice_name("shadows.fit", std::size_t(fit));
 }
 std::string_view to_string(DebugView view) {
-  return name_of(kViews, view);
+  return choice_name("render.view", std::size_t(view));
 }
 std::string_view to_string(AlphaMode mode) {
   return name_of(kAlphaModes, mode);

@@ -151,7 +151,7 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
   {
     auto s = small("default");
     s.shadows.cascades = 1;
-    s.contact.steps = 0;
+    s.contact.step_count = 0;
     for (auto& m : s.materials) {
       m.alpha = scene::AlphaMode::opaque;
       m.mask = scene::MaskPattern::none;
@@ -212,8 +212,9 @@ void main() { x = frame.viewport.x + draw.albedo.x; }
   PENUMBRA_CHECK(counts);
   PENUMBRA_CHECK(spots);
   PENUMBRA_CHECK(points);
+  PENUMBRA_CHECK(pcss);
 #undef PENUMBRA_CHECK
-  EXPECT_EQ(f->members.size(), 17u) << "a GLSL member without a C++ counterpart";
+  EXPECT_EQ(f->members.size(), 18u) << "a GLSL member without a C++ counterpart";
   EXPECT_EQ(f->size, sizeof(render::FrameGpu));
   EXPECT_EQ(member("spots").array_stride, sizeof(render::LightGpu));
   ASSERT_TRUE(refl.push_constants.has_value());

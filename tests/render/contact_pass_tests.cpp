@@ -195,11 +195,19 @@ Plane floor_plane() {
   return {{0.0, 0.0, 0.0}, {0.0, 1.0, 0.0}};
 }
 
+// The ray these cases were written for (0.5 m, 0.1 m thick), independent of the defaults.
+ContactShadowSettings case_settings() {
+  ContactShadowSettings s;
+  s.max_distance = 0.5f;
+  s.thickness = 0.1f;
+  return s;
+}
+
 struct Case {
   Scene scene;
   View view;
   glm::dvec3 to_light_world{0.0, 1.0, 0.0};
-  ContactShadowSettings settings;
+  ContactShadowSettings settings = case_settings();
   uint32_t frame = 0;
 };
 
@@ -860,6 +868,7 @@ TEST_F(ContactPassTest, RecordsAgainWithOtherImages) {
   ContactShadowPassDesc desc;
   desc.width = static_cast<uint32_t>(c.view.width);
   desc.height = static_cast<uint32_t>(c.view.height);
+  desc.settings = c.settings;
   ContactShadowPass pass(ctx(), desc);
   Images a = upload(ctx(), f.buffers);
   Images b = upload(ctx(), g.buffers);

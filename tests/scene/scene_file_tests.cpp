@@ -71,7 +71,7 @@ TEST(SceneFile, MinimalSceneGetsDefaults) {
   EXPECT_EQ(scene.camera.fov_y_degrees, 60.0f);
   EXPECT_EQ(scene.shadows.filter, Filter::pcf);
   EXPECT_EQ(scene.shadows.cascades, 4u);
-  EXPECT_EQ(scene.contact.steps, 16u);
+  EXPECT_EQ(scene.contact.step_count, 16u);
   EXPECT_EQ(scene.render.width, 1280u);
   const Scene::Requirements r = scene.requirements();
   EXPECT_FALSE(r.sun_shadows);
@@ -191,7 +191,7 @@ material = "fence"
   EXPECT_EQ(scene.shadows.slope_bias, 1.5f);
   EXPECT_EQ(scene.shadows.constant_bias, 0.001f);
   EXPECT_FALSE(scene.shadows.reverse_z);
-  EXPECT_EQ(scene.contact.steps, 8u);
+  EXPECT_EQ(scene.contact.step_count, 8u);
   EXPECT_EQ(scene.contact.intensity, 0.7f);
   EXPECT_EQ(scene.render.width, 640u);
   EXPECT_EQ(scene.render.frames, 3u);
@@ -583,7 +583,7 @@ TEST(SceneErrors, ValuesOutOfRange) {
   text = "[contact]\nsteps = 100\n" + kBox;
   EXPECT_THAT(error_of(text), HasSubstr(at(text, "steps") + "[contact] steps = 100 is out of "
                                                             "range; must be in [0, 64]"));
-  EXPECT_EQ(parse("[contact]\nsteps = 64\n" + kBox).contact.steps, 64u);
+  EXPECT_EQ(parse("[contact]\nsteps = 64\n" + kBox).contact.step_count, 64u);
   text = "[camera]\nnear = 1\nfar = 0.5\n" + kBox;
   EXPECT_THAT(error_of(text),
               HasSubstr(at(text, "far") + "[camera] far = 0.5 must be greater than near = 1"));

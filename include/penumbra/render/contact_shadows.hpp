@@ -28,6 +28,7 @@
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
+#include <penumbra/scene/scene.hpp>
 #include <penumbra/shadow/types.hpp>
 #include <string>
 #include <vector>
@@ -35,7 +36,7 @@
 namespace penumbra::render {
 
 // The most march steps per pixel (kContactMaxSteps in the GLSL).
-inline constexpr std::uint32_t kContactMaxSteps = 64;
+inline constexpr std::uint32_t kContactMaxSteps = scene::kMaxContactSteps;
 
 // The parameters of one dispatch, mirrored member for member by ContactShadowGpu in
 // shaders/penumbra/contact_shadows.glsl (passed as push constants). The layout is identical
@@ -79,24 +80,8 @@ static_assert(offsetof(ContactShadowGpu, reverse_z) == 72);
 static_assert(offsetof(ContactShadowGpu, reserved) == 76);
 
 // The user-facing parameters, with their defaults (docs/contact-shadows.md explains each).
-struct ContactShadowSettings {
-  // The most steps per pixel, in [0, kContactMaxSteps]; fewer on rays shorter than that many
-  // pixels. 0 disables contact shadows: no pipelines, no images, no dispatch.
-  std::uint32_t step_count = 16;
-  // Ray length in world (view-space) units, >= 0.
-  float max_distance = 0.5f;
-  // How deep an occluder is assumed behind its visible surface, world units, > 0.
-  float thickness = 0.1f;
-  // mask = 1 - intensity * occlusion; in [0, 1].
-  float intensity = 1.0f;
-  // Depth tolerance as a fraction of the receiver's view depth, divided by max(N.L, 0.25);
-  // in [0, 1).
-  float depth_bias = 0.002f;
-  // Steps at t = ((i + noise) / N)^step_exponent; in [1, 8].
-  float step_exponent = 2.0f;
-  // Occlusion fades out over this fraction of the screen at its borders; in [0, 0.5].
-  float edge_fade = 0.05f;
-};
+// The pass's options are the scene's [contact] table (one type, its defaults defined once).
+using ContactShadowSettings = scene::ContactSettings;
 
 // Throws penumbra::Error naming the field and its value when a setting is out of range.
 void validate(const ContactShadowSettings& settings);

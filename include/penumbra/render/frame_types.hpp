@@ -43,6 +43,7 @@ struct alignas(16) FrameGpu {
   glm::uvec4 counts;  // x: spot lights, y: point lights, z: contact pass (0/1), w: 0
   LightGpu spots[kMaxSpotLights];
   LightGpu points[kMaxPointLights];
+  glm::vec4 pcss;  // x: confidence fraction (blocker-search taps that must hit), yzw: 0
 };
 
 static_assert(offsetof(FrameGpu, view) == 0);
@@ -54,7 +55,8 @@ static_assert(offsetof(FrameGpu, mode) == 400);
 static_assert(offsetof(FrameGpu, counts) == 416);
 static_assert(offsetof(FrameGpu, spots) == 432);
 static_assert(offsetof(FrameGpu, points) == 560);
-static_assert(sizeof(FrameGpu) == 688);
+static_assert(offsetof(FrameGpu, pcss) == 688);
+static_assert(sizeof(FrameGpu) == 704);
 
 // Push constants of every geometry pass.
 struct alignas(16) DrawPush {

@@ -10,6 +10,7 @@
 #include <glm/glm.hpp>
 #include <optional>
 #include <penumbra/scene/mesh.hpp>
+#include <penumbra/shadow/cascades.hpp>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -90,34 +91,57 @@ struct PointLight {
 };
 
 enum class Filter { hard, pcf, pcss, poisson };
-enum class CascadeFit { box, camera_sphere, slice_sphere };
+// One enum for the concept: the cascade math's (docs/cascades.md).
+using CascadeFit = shadow::CascadeFit;
+
+// The cascade layout's defaults are the shadow library's (shadow::ShadowConfig), defined there
+// once; the scene adds the filter and the biases. Ranges, meanings and keys: params.hpp.
+inline constexpr shadow::ShadowConfig kCascadeDefaults{};
 
 struct ShadowSettings {
   Filter filter = Filter::pcf;
-  std::uint32_t cascades = 4;  // sun cascades, in [1, 4]
-  float split_lambda = 0.75f;  // PSSM log/uniform blend, in [0, 1]
-  float max_distance = 60.0f;  // shadows end here (view distance), > 0
-  std::uint32_t resolution = 2048;
-  CascadeFit fit = CascadeFit::slice_sphere;
-  int pcf_radius = 1;                 // PCF kernel radius in texels, in [0, 8]
-  int pcss_quality = 1;               // 0 low, 1 medium, 2 high
-  float blend_band = 0.1f;            // fraction of a cascade blended with the next, in [0, 0.5]
-  float fade_band = 0.1f;             // fraction of max_distance over which shadows fade, [0, 1]
-  float normal_offset_texels = 1.5f;  // >= 0
-  float slope_bias = 2.0f;            // >= 0
-  float constant_bias = 0.0005f;      // >= 0
+  std::uint32_t cascades = kCascadeDefaults.cascade_count;  // sun cascades, in [1, 4]
+  float split_lambda = float(kCascadeDefaults.split_lambda);
+  float max_distance = float(kCascadeDefaults.max_distance);  // view distance, > 0
+  std::uint32_t resolution = kCascadeDefaults.resolution;
+  CascadeFit fit = kCascadeDefaults.fit;
+  int pcf_radius = 1;    // PCF kernel radius in texels, in [0, 8]
+  int pcss_quality = 1;  // 0 low, 1 medium, 2 high
+  float pcss_search_texels = float(kCascadeDefaults.pcss.blocker_search_texels);
+  float pcss_min_filter_texels = float(kCascadeDefaults.pcss.min_filter_texels);
+  float pcss_max_filter_texels = float(kCascadeDefaults.pcss.max_filter_texels);
+  // Fraction of the blocker-search taps that must find a blocker before PCSS filters at all.
+  float pcss_confidence = 0.1f;
+  float blend_band = float(kCascadeDefaults.blend_fraction);  // in [0, 0.5]
+  float fade_band = float(kCascadeDefaults.fade_fraction);    // of max_distance, in [0, 1]
+  float normal_offset_texels = 1.5f;                          // >= 0
+  float slope_bias = 2.0f;                                    // >= 0
+  float constant_bias = 0.0005f;                              // >= 0
   bool reverse_z = true;
 };
 
-// The most contact-shadow march steps (the contact pass's kContactMaxSteps; the renderer
-// static_asserts that they agree).
+// The most contact-shadow march steps (what contact_shadows.comp can march).
 inline constexpr std::uint32_t kMaxContactSteps = 64;
 
+// Screen-space contact shadows: the scene's [contact] table and the contact pass's options
+// (render::ContactShadowSettings is this type).
 struct ContactSettings {
-  std::uint32_t steps = 16;  // in [0, kMaxContactSteps]; 0 = off: no contact-shadow pass
+  // The most steps per pixel, in [0, kMaxContactSteps]; fewer on rays shorter than that many
+  // pixels. 0 disables contact shadows: no pipelines, no images, no dispatch.
+  std::uint32_t step_count = 16;
+  // Ray length in world (view-space) units, > 0.
   float max_distance = 0.3f;
+  // How deep an occluder is assumed behind its visible surface, world units, > 0.
   float thickness = 0.05f;
-  float intensity = 1.0f;  // in [0, 1]
+  // mask = 1 - intensity * occlusion; in [0, 1].
+  float intensity = 1.0f;
+  // Depth tolerance as a fraction of the receiver's view depth, divided by max(N.L, 0.25);
+  // in [0, 1).
+  float depth_bias = 0.002f;
+  // Steps at t = ((i + noise) / N)^step_exponent; in [1, 8].
+  float step_exponent = 2.0f;
+  // Occlusion fades out over this fraction of the screen at its borders; in [0, 0.5].
+  float edge_fade = 0.05f;
 };
 
 enum class DebugView { lit, shadow_factor, cascades, contact_mask, texel_density, penumbra };
@@ -154,7 +178,7 @@ struct Scene {
     std::uint32_t cascades = 0;            // shadows.cascades if sun_shadows, else 0
     std::uint32_t spot_shadow_maps = 0;    // spots with shadows = true
     std::uint32_t point_shadow_cubes = 0;  // points with shadows = true
-    bool contact_pass = false;             // contact.steps > 0 and the scene has a light
+    bool contact_pass = false;             // contact.step_count > 0 and the scene has a light
     bool masked_materials = false;         // an instance uses a masked material
   };
   Requirements requirements() const;

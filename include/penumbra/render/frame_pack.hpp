@@ -1,0 +1,64 @@
+#pragma once
+
+// A scene becomes one frame's GPU data here, on the CPU and without a device: the camera-
+// relative draws, the frame block, the sun's cascades and the spot and point shadow matrices.
+// The renderer uploads what pack_frame returns; tests/render/frame_pack_tests.cpp checks it
+// without a GPU.
+
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <penumbra/render/frame_types.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <penumbra/shadow/cascades.hpp>
+#include <penumbra/shadow/gpu_types.hpp>
+#include <penumbra/shadow/local_lights.hpp>
+#include <vector>
+
+namespace penumbra::render {
+
+// What the device and the built passes decide about a frame.
+struct FrameCaps {
+  bool depth_clamp = true;    // the device clamps depth (shadow pancaking)
+  bool contact_pass = false;  // the contact-shadow pass was built
+  // Shadow maps actually allocated (the renderer's requirements).
+  std::uint32_t spot_shadow_maps = 0;
+  std::uint32_t point_shadow_cubes = 0;
+  bool sun_shadows = false;
+};
+
+// One instance, ready to draw: its mesh and push constants (model relative to the origin).
+struct Draw {
+  std::uint32_t mesh = 0;
+  DrawPush push{};
+  bool masked = false;
+  bool casts = true;
+};
+
+struct PackedFrame {
+  glm::dvec3 origin{0.0};  // the render origin (the camera position), in world space
+  FrameGpu frame{};
+  std::vector<Draw> draws;
+  // The sun (valid when FrameCaps::sun_shadows).
+  shadow::CascadeSet cascades;
+  shadow::ShadowGpu shadow{};
+  // kMaxSpotLights / kMaxPointLights entries; the first spot_shadows.size() are used.
+  std::vector<shadow::SpotShadow> spot_shadows;
+  std::vector<shadow::SpotShadowGpu> spot_gpu;
+  std::vector<shadow::PointShadow> point_shadows;
+  std::vector<shadow::PointShadowGpu> point_gpu;
+};
+
+// The camera of the shadow math (double precision, world space) for an image of width x height.
+shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height);
+
+// Reverse-Z (or standard) perspective, Vulkan clip z in [0, 1], y flipped so +Y is up on screen.
+glm::mat4 camera_projection(const scene::Camera& camera, double aspect, bool reverse_z);
+
+// The shader's filter constant (kFilterHard ...) of a scene filter.
+std::uint32_t filter_index(scene::Filter filter);
+
+// Everything the GPU reads for frame `frame_index` of `scene` at width x height.
+PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
+                       const FrameCaps& caps, std::uint32_t frame_index);
+
+}  // namespace penumbra::render

@@ -1,0 +1,116 @@
+#pragma once
+
+// The scene parameters: one row per key of the singleton tables ([camera], [sun], [shadows],
+// [contact], [render]). Each row carries the key as written in scene files and scripts
+// ("shadows.pcf_radius"), its type, range, choice names, whether a change needs a rebuild of
+// the renderer or only a new frame, its documentation line and an accessor on Scene. The scene
+// file reader, the runtime's set/get, the ImGui panel, penumbra-view's --view/--filter names and
+// the key tables of docs/scenes.md all come from it (a test walks it against each of them).
+// Adding a key is one row here (and its packing in src/render/passes/frame_pack.cpp).
+//
+// Defaults are not repeated here: they are the member initializers of the structs in scene.hpp,
+// read back from a default Scene (default_text).
+
+#include <cstdint>
+#include <glm/glm.hpp>
+#include <limits>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace penumbra::scene {
+
+struct Scene;
+
+// An allowed numeric range; an infinite bound is open-ended.
+struct ParamRange {
+  double lo = -std::numeric_limits<double>::infinity();
+  double hi = std::numeric_limits<double>::infinity();
+  bool lo_open = false;
+  bool hi_open = false;
+
+  bool contains(double v) const {
+    return (lo_open ? v > lo : v >= lo) && (hi_open ? v < hi : v <= hi);
+  }
+  // "finite", "> 0", ">= 0", "in [0, 1]", "in (0, 180)".
+  std::string text() const;
+};
+
+enum class ParamType {
+  number,   // a float field
+  integer,  // an integer field, range [lo, hi]
+  boolean,
+  choice,     // an enum, by name; choices[i] is ordinal i
+  vec3,       // three numbers, each in range
+  direction,  // three numbers, non-zero, stored normalized
+};
+
+// What a change does in a running session.
+enum class ParamApply {
+  frame,      // the next frame uses it
+  rebuild,    // the renderer is rebuilt (images, pipelines or passes change)
+  file_only,  // read from scene files only; a session's window or flags decide it
+};
+
+using ParamValue = std::variant<double, std::int64_t, bool, glm::dvec3>;
+
+struct Param {
+  std::string_view key;  // "<table>.<name>"
+  ParamType type = ParamType::number;
+  ParamRange range;  // number, integer (closed), vec3 (each element)
+  std::vector<std::string_view> choices;
+  bool ordinal_alias = false;  // a choice that also accepts its ordinal (pcss_quality = 2)
+  ParamApply apply = ParamApply::frame;
+  std::string_view doc;  // the docs/scenes.md line (range and meaning)
+  // The panel's slider range (lo < hi), when narrower than the range or the range is open.
+  ParamRange widget{0.0, 0.0};
+  // Read by its table's own code in the scene file (the sun's direction, given as a vector or
+  // as elevation and azimuth); still set/get like any other row.
+  bool custom_read = false;
+
+  // nullopt when the table is absent from the scene (a scene without a [sun]).
+  std::optional<ParamValue> (*get)(const Scene&) = nullptr;
+  // Throws penumbra::Error when the table is absent.
+  void (*set)(Scene&, const ParamValue&) = nullptr;
+  // A constraint across keys, checked after a set; the violation as text, or "".
+  std::string (*check)(const Scene&) = nullptr;
+
+  std::string_view table() const { return key.substr(0, key.find('.')); }
+  std::string_view name() const { return key.substr(key.find('.') + 1); }
+  bool settable() const { return apply != ParamApply::file_only; }
+};
+
+// Every row, in the order of docs/scenes.md.
+const std::vector<Param>& params();
+// nullptr when unknown.
+const Param* find_param(std::string_view key);
+// Throws penumbra::Error "unknown parameter 'KEY' (did you mean '...'?); known: ..." .
+const Param& param(std::string_view key);
+// The rows of one table ("shadows"), in order.
+std::vector<const Param*> params_of(std::string_view table);
+
+// The value as set/get and the panel show it: "0.75", "pcf", "true", "0,2,6".
+std::string format_value(const Param& p, const ParamValue& value);
+// Parses text as set takes it; throws penumbra::Error "KEY TEXT: expected ..." .
+ParamValue parse_value(const Param& p, std::string_view text);
+// What the value must be: "an integer in [0, 8]", "one of hard, pcf, pcss, poisson".
+std::string expectation(const Param& p);
+// The default as docs/scenes.md writes it, from a default Scene (and a default Sun).
+std::string default_text(const Param& p);
+
+// The docs/scenes.md row of a key: "| `pcf_radius` | integer | 1 | [0, 8]; texels |"; and every
+// row of a table, one per line (a test checks docs/scenes.md holds each).
+std::string markdown_row(const Param& p);
+std::string markdown_rows(std::string_view table);
+
+// get/set by key and text, with the row's checks; set leaves the scene unchanged on error.
+std::string get_param(const Scene& scene, std::string_view key);
+void set_param(Scene& scene, std::string_view key, std::string_view text);
+
+// The constraints of [camera] across keys ("" when they hold): target != position, up not
+// parallel to the view, far > near. The scene file and set_param both use it.
+std::string camera_violation(const Scene& scene);
+
+}  // namespace penumbra::scene

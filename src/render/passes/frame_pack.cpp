@@ -1,0 +1,204 @@
+// pack_frame: a scene becomes one frame's GPU structs (include/penumbra/render/frame_pack.hpp).
+// Pure: no device, no allocation of GPU objects; every position is made relative to the render
+// origin (the camera) in double before it is rounded to float.
+
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <penumbra/render/frame_pack.hpp>
+#include <penumbra/shadow/pack.hpp>
+
+namespace penumbra::render {
+namespace {
+
+glm::dvec3 to_d(glm::vec3 v) {
+  return glm::dvec3(v);
+}
+
+shadow::DepthConvention depth_of(bool reverse_z) {
+  return reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard;
+}
+
+std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin) {
+  std::vector<Draw> draws;
+  draws.reserve(scene.instances.size());
+  for (const auto& inst : scene.instances) {
+    const auto& mat = scene.materials.at(inst.material);
+    Draw d{};
+    d.mesh = inst.mesh;
+    // Camera-relative: translate by -origin in double before rounding to float.
+    glm::dmat4 model = glm::dmat4(inst.transform);
+    model[3] -= glm::dvec4(origin, 0.0);
+    d.push.model = glm::mat4(model);
+    d.masked = mat.alpha == scene::AlphaMode::masked;
+    d.push.albedo = glm::vec4(mat.albedo, d.masked ? 0.0f : 1.0f);
+    d.push.mask = glm::vec4(d.masked ? float(int(mat.mask)) : 0.0f, mat.alpha_cutoff,
+                            mat.mask_scale.x, mat.mask_scale.y);
+    d.casts = inst.casts_shadows;
+    draws.push_back(d);
+  }
+  return draws;
+}
+
+void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedFrame& out) {
+  const bool reverse_z = scene.shadows.reverse_z;
+  const glm::dvec3& origin = out.origin;
+  out.spot_gpu.assign(kMaxSpotLights, shadow::SpotShadowGpu{});
+  out.point_gpu.assign(kMaxPointLights, shadow::PointShadowGpu{});
+  uint32_t spots = 0, spot_maps_used = 0;
+  for (const auto& s : scene.spots) {
+    if (spots == kMaxSpotLights) break;
+    LightGpu& l = out.frame.spots[spots++];
+    l.position_range = glm::vec4(glm::vec3(to_d(s.position) - origin), s.range);
+    l.direction_cos =
+        glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
+    l.color_intensity = glm::vec4(s.color, s.intensity);
+    l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, 0, 0);
+    if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
+      shadow::SpotLight sl;
+      sl.position = to_d(s.position);
+      sl.direction = to_d(s.direction);
+      sl.outer_angle = glm::radians(double(s.outer_degrees));
+      sl.range = s.range;
+      shadow::SpotShadowConfig cfg;
+      cfg.resolution = s.resolution;
+      cfg.depth = depth_of(reverse_z);
+      out.spot_shadows.push_back(shadow::compute_spot_shadow(sl, cfg));
+      out.spot_gpu[spot_maps_used] = shadow::pack_spot_shadow(out.spot_shadows.back(), origin);
+      l.params.y = float(spot_maps_used++);
+    }
+  }
+  uint32_t points = 0, point_maps_used = 0;
+  for (const auto& p : scene.points) {
+    if (points == kMaxPointLights) break;
+    LightGpu& l = out.frame.points[points++];
+    l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
+    l.color_intensity = glm::vec4(p.color, p.intensity);
+    l.params = glm::vec4(0, -1.0f, 0, 0);
+    if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
+      shadow::PointLight pl;
+      pl.position = to_d(p.position);
+      pl.range = p.range;
+      shadow::PointShadowConfig cfg;
+      cfg.resolution = p.resolution;
+      cfg.depth = depth_of(reverse_z);
+      out.point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
+      out.point_gpu[point_maps_used] = shadow::pack_point_shadow(out.point_shadows.back(), origin);
+      l.params.y = float(point_maps_used++);
+    }
+  }
+  out.frame.counts = glm::uvec4(spots, points, caps.contact_pass ? 1u : 0u, 0u);
+}
+
+void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const FrameCaps& caps,
+              PackedFrame& out) {
+  const auto& sh = scene.shadows;
+  shadow::ShadowConfig cfg;
+  cfg.cascade_count = sh.cascades;
+  cfg.split_lambda = sh.split_lambda;
+  cfg.max_distance = sh.max_distance;
+  cfg.resolution = sh.resolution;
+  cfg.fit = sh.fit;
+  cfg.depth = depth_of(sh.reverse_z);
+  cfg.depth_clamp = caps.depth_clamp;
+  cfg.blend_fraction = sh.blend_band;
+  cfg.fade_fraction = sh.fade_band;
+  cfg.pcss.blocker_search_texels = sh.pcss_search_texels;
+  cfg.pcss.min_filter_texels = sh.pcss_min_filter_texels;
+  cfg.pcss.max_filter_texels = sh.pcss_max_filter_texels;
+  shadow::DirectionalLight light;
+  light.direction = to_d(scene.sun->direction);
+  light.angular_diameter = glm::radians(double(scene.sun->angular_diameter_degrees));
+  const scene::Bounds b = scene.world_bounds();
+  shadow::Aabb bounds;
+  bounds.min = to_d(b.min);
+  bounds.max = to_d(b.max);
+  out.cascades = shadow::compute_cascades(cfg, frame_camera(scene, width, height), light, bounds);
+  out.shadow = shadow::pack_shadow(out.cascades, out.origin);
+}
+
+}  // namespace
+
+glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_z) {
+  const double t = std::tan(glm::radians(double(c.fov_y_degrees)) * 0.5);
+  const double n = c.near, f = c.far;
+  glm::dmat4 p(0.0);
+  p[0][0] = 1.0 / (aspect * t);
+  p[1][1] = -1.0 / t;  // Vulkan framebuffer y grows downward: flip so world up is screen up
+  if (reverse_z) {
+    p[2][2] = n / (f - n);
+    p[3][2] = f * n / (f - n);
+  } else {
+    p[2][2] = f / (n - f);
+    p[3][2] = f * n / (n - f);
+  }
+  p[2][3] = -1.0;
+  return glm::mat4(p);
+}
+
+std::uint32_t filter_index(scene::Filter f) {
+  switch (f) {
+    case scene::Filter::hard:
+      return 0;
+    case scene::Filter::pcf:
+      return 1;
+    case scene::Filter::pcss:
+      return 2;
+    case scene::Filter::poisson:
+      return 3;
+  }
+  return 1;
+}
+
+shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height) {
+  const auto& c = scene.camera;
+  shadow::Camera sc;
+  sc.position = to_d(c.position);
+  sc.forward = to_d(c.target - c.position);
+  sc.up = to_d(c.up);
+  sc.fov_y = glm::radians(double(c.fov_y_degrees));
+  sc.aspect = double(width) / double(height);
+  sc.near = c.near;
+  sc.far = c.far;
+  return sc;
+}
+
+PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
+                       const FrameCaps& caps, std::uint32_t frame_index) {
+  PackedFrame out;
+  const auto& c = scene.camera;
+  const bool reverse_z = scene.shadows.reverse_z;
+  out.origin = to_d(c.position);
+  out.draws = pack_draws(scene, out.origin);
+  const double aspect = double(width) / double(height);
+  const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), c.target - c.position, c.up);
+  const glm::mat4 proj = camera_projection(c, aspect, reverse_z);
+  FrameGpu& frame = out.frame;
+  frame.view = view;
+  frame.proj = proj;
+  frame.view_proj = proj * view;
+  frame.inv_view_proj = glm::inverse(frame.view_proj);
+  frame.camera_position = glm::vec4(0, 0, 0, 1);
+  frame.camera_forward = glm::vec4(glm::normalize(c.target - c.position), 0);
+  frame.viewport =
+      glm::vec4(float(width), float(height), 1.0f / float(width), 1.0f / float(height));
+  frame.projection =
+      glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
+  const auto& sh = scene.shadows;
+  frame.bias =
+      glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.constant_bias * 20.0f);
+  frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f,
+                                  std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+  frame.pcss = glm::vec4(sh.pcss_confidence, 0.0f, 0.0f, 0.0f);
+  frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
+                          uint32_t(scene.render.view));
+  frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);
+  if (scene.sun) {
+    frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);
+    frame.sun_color = glm::vec4(scene.sun->color, scene.sun->shadows ? 1.0f : 0.0f);
+  }
+  pack_local_lights(scene, caps, out);
+  if (caps.sun_shadows && scene.sun) pack_sun(scene, width, height, caps, out);
+  return out;
+}
+
+}  // namespace penumbra::render

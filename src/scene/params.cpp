@@ -1,0 +1,634 @@
+// The scene parameter table (include/penumbra/scene/params.hpp): the rows, and parsing and
+// formatting values as scripts and the panel write them.
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <penumbra/core/error.hpp>
+#include <penumbra/scene/params.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <sstream>
+#include <type_traits>
+
+namespace penumbra::scene {
+namespace {
+
+constexpr double kInf = std::numeric_limits<double>::infinity();
+constexpr ParamRange kAny{};
+constexpr ParamRange kPositive{0.0, kInf, true, false};
+constexpr ParamRange kNonNegative{0.0, kInf, false, false};
+constexpr ParamRange kUnit{0.0, 1.0, false, false};
+constexpr ParamRange closed(double lo, double hi) {
+  return ParamRange{lo, hi, false, false};
+}
+constexpr ParamRange slider(double lo, double hi) {
+  return ParamRange{lo, hi, false, false};
+}
+
+std::string number_text(double v) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof buffer, "%g", v);
+  return buffer;
+}
+
+// ---- field accessors: the value types of ParamValue from the fields' own types ------------
+
+template <class T>
+ParamValue to_value(const T& v) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return v;
+  } else if constexpr (std::is_enum_v<T>) {
+    return static_cast<std::int64_t>(v);
+  } else if constexpr (std::is_integral_v<T>) {
+    return static_cast<std::int64_t>(v);
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return static_cast<double>(v);
+  } else {
+    return glm::dvec3(v);
+  }
+}
+
+template <class T>
+T from_value(const ParamValue& v) {
+  if constexpr (std::is_same_v<T, bool>) {
+    return std::get<bool>(v);
+  } else if constexpr (std::is_enum_v<T> || std::is_integral_v<T>) {
+    return static_cast<T>(std::get<std::int64_t>(v));
+  } else if constexpr (std::is_floating_point_v<T>) {
+    return static_cast<T>(std::get<double>(v));
+  } else {
+    return T(std::get<glm::dvec3>(v));
+  }
+}
+
+struct Access {
+  std::optional<ParamValue> (*get)(const Scene&);
+  void (*set)(Scene&, const ParamValue&);
+};
+
+// A field of one of Scene's always-present tables.
+template <auto Table, auto Field>
+Access field() {
+  return {[](const Scene& s) -> std::optional<ParamValue> { return to_value((s.*Table).*Field); },
+          [](Scene& s, const ParamValue& v) {
+            auto& f = (s.*Table).*Field;
+            f = from_value<std::remove_cvref_t<decltype(f)>>(v);
+          }};
+}
+
+// A field of the optional [sun].
+template <auto Field>
+Access sun_field() {
+  return {[](const Scene& s) -> std::optional<ParamValue> {
+            if (!s.sun) return std::nullopt;
+            return to_value((*s.sun).*Field);
+          },
+          [](Scene& s, const ParamValue& v) {
+            if (!s.sun) throw Error("the scene '" + s.name + "' has no [sun]");
+            auto& f = (*s.sun).*Field;
+            f = from_value<std::remove_cvref_t<decltype(f)>>(v);
+          }};
+}
+
+struct Row {
+  std::string_view key;
+  ParamType type;
+  ParamRange range;
+  Access access;
+  ParamApply apply;
+  std::string_view doc;
+  std::vector<std::string_view> choices = {};
+  ParamRange widget = {0.0, 0.0};
+  std::string (*check)(const Scene&) = nullptr;
+  bool ordinal_alias = false;
+  bool custom_read = false;
+};
+
+std::string pcss_violation(const Scene& s) {
+  if (s.shadows.pcss_min_filter_texels > s.shadows.pcss_max_filter_texels)
+    return "shadows.pcss_min_filter_texels = " + number_text(s.shadows.pcss_min_filter_texels) +
+           " must not exceed pcss_max_filter_texels = " +
+           number_text(s.shadows.pcss_max_filter_texels);
+  return "";
+}
+
+std::vector<Param> make_params() {
+  using S = Scene;
+  using A = ParamApply;
+  using T = ParamType;
+  const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson"};
+  const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
+  const std::vector<std::string_view> views{"lit",          "shadow_factor", "cascades",
+                                            "contact_mask", "texel_density", "penumbra"};
+  const std::vector<Row> rows = {
+      // [camera]
+      {"camera.position",
+       T::vec3,
+       kAny,
+       field<&S::camera, &Camera::position>(),
+       A::frame,
+       "world position of the eye",
+       {},
+       {},
+       camera_violation},
+      {"camera.target",
+       T::vec3,
+       kAny,
+       field<&S::camera, &Camera::target>(),
+       A::frame,
+       "the point looked at; not equal to `position`",
+       {},
+       {},
+       camera_violation},
+      {"camera.up",
+       T::direction,
+       kAny,
+       field<&S::camera, &Camera::up>(),
+       A::frame,
+       "non-zero, not parallel to the view direction",
+       {},
+       {},
+       camera_violation},
+      {"camera.fov_y",
+       T::number,
+       ParamRange{0.0, 180.0, true, true},
+       field<&S::camera, &Camera::fov_y_degrees>(),
+       A::frame,
+       "degrees, full vertical field of view",
+       {},
+       slider(10.0, 120.0)},
+      {"camera.near",
+       T::number,
+       kPositive,
+       field<&S::camera, &Camera::near>(),
+       A::frame,
+       "metres; less than `far`",
+       {},
+       {},
+       camera_violation},
+      {"camera.far",
+       T::number,
+       kPositive,
+       field<&S::camera, &Camera::far>(),
+       A::frame,
+       "metres; greater than `near`",
+       {},
+       {},
+       camera_violation},
+      // [sun]
+      {"sun.direction",
+       T::direction,
+       kAny,
+       sun_field<&Sun::direction>(),
+       A::frame,
+       "non-zero; the direction the light **travels** (from the sun toward the scene), so a sun "
+       "above the horizon has y < 0; or give `elevation` and `azimuth`",
+       {},
+       {},
+       nullptr,
+       false,
+       true},
+      {"sun.color", T::vec3, kNonNegative, sun_field<&Sun::color>(), A::frame, "linear RGB"},
+      {"sun.intensity",
+       T::number,
+       kNonNegative,
+       sun_field<&Sun::intensity>(),
+       A::frame,
+       "irradiance on a surface facing the sun",
+       {},
+       slider(0.0, 20.0)},
+      {"sun.angular_diameter",
+       T::number,
+       ParamRange{0.0, 90.0, false, true},
+       sun_field<&Sun::angular_diameter_degrees>(),
+       A::frame,
+       "degrees; the real sun: 0.53; 0 = hard shadows",
+       {},
+       slider(0.0, 10.0)},
+      {"sun.shadows", T::boolean, kAny, sun_field<&Sun::shadows>(), A::rebuild,
+       "false: lit but casts no shadows (no cascades are built)"},
+      // [shadows]
+      {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,
+       "how shadow maps are filtered", filters},
+      {"shadows.cascades", T::integer, closed(1, 4),
+       field<&S::shadows, &ShadowSettings::cascades>(), A::rebuild, "sun cascades"},
+      {"shadows.lambda", T::number, kUnit, field<&S::shadows, &ShadowSettings::split_lambda>(),
+       A::frame, "PSSM split blend: 0 uniform, 1 logarithmic"},
+      {"shadows.max_distance",
+       T::number,
+       kPositive,
+       field<&S::shadows, &ShadowSettings::max_distance>(),
+       A::frame,
+       "metres; sun shadows end at this view distance",
+       {},
+       slider(1.0, 500.0)},
+      {"shadows.resolution", T::integer, closed(16, 16384),
+       field<&S::shadows, &ShadowSettings::resolution>(), A::rebuild, "texels per cascade side"},
+      {"shadows.fit", T::choice, kAny, field<&S::shadows, &ShadowSettings::fit>(), A::frame,
+       "how a cascade is fit to its slice (docs/cascades.md)", fits},
+      {"shadows.pcf_radius", T::integer, closed(0, 8),
+       field<&S::shadows, &ShadowSettings::pcf_radius>(), A::frame, "texels"},
+      {"shadows.pcss_quality",
+       T::choice,
+       kAny,
+       field<&S::shadows, &ShadowSettings::pcss_quality>(),
+       A::frame,
+       "blocker-search and filter tap counts (or 0, 1, 2)",
+       {"low", "medium", "high"},
+       {},
+       nullptr,
+       true},
+      {"shadows.pcss_search_texels",
+       T::number,
+       kPositive,
+       field<&S::shadows, &ShadowSettings::pcss_search_texels>(),
+       A::frame,
+       "texels of a cascade: half-width of the PCSS blocker search",
+       {},
+       slider(1.0, 64.0)},
+      {"shadows.pcss_min_filter_texels",
+       T::number,
+       kNonNegative,
+       field<&S::shadows, &ShadowSettings::pcss_min_filter_texels>(),
+       A::frame,
+       "texels: the smallest PCSS filter radius; at most `pcss_max_filter_texels`",
+       {},
+       slider(0.0, 8.0),
+       pcss_violation},
+      {"shadows.pcss_max_filter_texels",
+       T::number,
+       kNonNegative,
+       field<&S::shadows, &ShadowSettings::pcss_max_filter_texels>(),
+       A::frame,
+       "texels: the largest PCSS filter radius",
+       {},
+       slider(0.0, 64.0),
+       pcss_violation},
+      {"shadows.pcss_confidence", T::number, kUnit,
+       field<&S::shadows, &ShadowSettings::pcss_confidence>(), A::frame,
+       "fraction of blocker-search taps that must find a blocker before PCSS filters at all"},
+      {"shadows.blend_band", T::number, closed(0.0, 0.5),
+       field<&S::shadows, &ShadowSettings::blend_band>(), A::frame,
+       "fraction of a cascade blended into the next"},
+      {"shadows.fade_band", T::number, kUnit, field<&S::shadows, &ShadowSettings::fade_band>(),
+       A::frame, "fraction of `max_distance` over which shadows fade out"},
+      {"shadows.normal_offset_texels",
+       T::number,
+       kNonNegative,
+       field<&S::shadows, &ShadowSettings::normal_offset_texels>(),
+       A::frame,
+       "texels: the receiver moves along its normal by this many shadow-map texels",
+       {},
+       slider(0.0, 4.0)},
+      {"shadows.slope_bias",
+       T::number,
+       kNonNegative,
+       field<&S::shadows, &ShadowSettings::slope_bias>(),
+       A::frame,
+       "slope-scaled depth bias, as a multiple of `constant_bias`",
+       {},
+       slider(0.0, 8.0)},
+      {"shadows.constant_bias",
+       T::number,
+       kNonNegative,
+       field<&S::shadows, &ShadowSettings::constant_bias>(),
+       A::frame,
+       "depth bias, in shadow-map depth units",
+       {},
+       slider(0.0, 0.01)},
+      {"shadows.reverse_z", T::boolean, kAny, field<&S::shadows, &ShadowSettings::reverse_z>(),
+       A::rebuild, "the depth convention of every depth buffer and shadow map"},
+      // [contact]
+      {"contact.steps", T::integer, closed(0, kMaxContactSteps),
+       field<&S::contact, &ContactSettings::step_count>(), A::rebuild,
+       "march steps per pixel; **0 turns the contact-shadow pass off**"},
+      {"contact.max_distance",
+       T::number,
+       kPositive,
+       field<&S::contact, &ContactSettings::max_distance>(),
+       A::rebuild,
+       "metres marched toward the light",
+       {},
+       slider(0.0, 2.0)},
+      {"contact.thickness",
+       T::number,
+       kPositive,
+       field<&S::contact, &ContactSettings::thickness>(),
+       A::rebuild,
+       "metres: how deep an occluder is assumed behind its visible surface",
+       {},
+       slider(0.0, 0.5)},
+      {"contact.intensity", T::number, kUnit, field<&S::contact, &ContactSettings::intensity>(),
+       A::rebuild, "mask = 1 - intensity x occlusion"},
+      {"contact.depth_bias",
+       T::number,
+       ParamRange{0.0, 1.0, false, true},
+       field<&S::contact, &ContactSettings::depth_bias>(),
+       A::rebuild,
+       "depth tolerance as a fraction of the receiver's view depth, over max(N.L, 0.25)",
+       {},
+       slider(0.0, 0.02)},
+      {"contact.step_exponent", T::number, closed(1.0, 8.0),
+       field<&S::contact, &ContactSettings::step_exponent>(), A::rebuild,
+       "steps at t = ((i + noise) / N)^step_exponent: larger packs them near the receiver"},
+      {"contact.edge_fade", T::number, closed(0.0, 0.5),
+       field<&S::contact, &ContactSettings::edge_fade>(), A::rebuild,
+       "fraction of the screen at its borders over which occlusion fades out"},
+      // [render]
+      {"render.width", T::integer, closed(16, 16384), field<&S::render, &RenderSettings::width>(),
+       A::file_only, "pixels (headless; `--size` and the window override it)"},
+      {"render.height", T::integer, closed(16, 16384), field<&S::render, &RenderSettings::height>(),
+       A::file_only, "pixels"},
+      {"render.frames", T::integer, closed(1, 1000000),
+       field<&S::render, &RenderSettings::frames>(), A::file_only,
+       "frames to render headless (`--frames` overrides it)"},
+      {"render.view", T::choice, kAny, field<&S::render, &RenderSettings::view>(), A::frame,
+       "what the image shows: the lit image or a debug view", views},
+      {"render.exposure",
+       T::number,
+       kPositive,
+       field<&S::render, &RenderSettings::exposure>(),
+       A::frame,
+       "multiplies the linear colour before tonemapping",
+       {},
+       slider(0.0, 8.0)},
+  };
+  std::vector<Param> out;
+  for (const Row& r : rows) {
+    Param p;
+    p.key = r.key;
+    p.type = r.type;
+    p.range = r.range;
+    p.choices = r.choices;
+    p.ordinal_alias = r.ordinal_alias;
+    p.apply = r.apply;
+    p.doc = r.doc;
+    p.widget = r.widget;
+    p.custom_read = r.custom_read;
+    p.get = r.access.get;
+    p.set = r.access.set;
+    p.check = r.check;
+    out.push_back(p);
+  }
+  return out;
+}
+
+[[noreturn]] void bad(const Param& p, std::string_view text) {
+  throw Error(std::string(p.key) + " " +
+              (text.empty() ? std::string("(empty)") : std::string(text)) + ": expected " +
+              expectation(p));
+}
+
+std::optional<double> parse_number(std::string_view text) {
+  const std::string s(text);
+  char* end = nullptr;
+  const double x = std::strtod(s.c_str(), &end);
+  if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x)) return std::nullopt;
+  return x;
+}
+
+std::string join(const std::vector<std::string_view>& words) {
+  std::string out;
+  for (std::string_view w : words) out += (out.empty() ? "" : ", ") + std::string(w);
+  return out;
+}
+
+}  // namespace
+
+std::string ParamRange::text() const {
+  if (hi == kInf && lo == -kInf) return "finite";
+  if (hi == kInf) return std::string(lo_open ? "> " : ">= ") + number_text(lo);
+  if (lo == -kInf) return std::string(hi_open ? "< " : "<= ") + number_text(hi);
+  return std::string(lo_open ? "in (" : "in [") + number_text(lo) + ", " + number_text(hi) +
+         (hi_open ? ")" : "]");
+}
+
+const std::vector<Param>& params() {
+  static const std::vector<Param> table = make_params();
+  return table;
+}
+
+const Param* find_param(std::string_view key) {
+  for (const Param& p : params())
+    if (p.key == key) return &p;
+  return nullptr;
+}
+
+const Param& param(std::string_view key) {
+  if (const Param* p = find_param(key)) return *p;
+  // A "did you mean": the known key sharing the longest prefix.
+  const Param* best = nullptr;
+  std::size_t best_len = 0;
+  std::string all;
+  for (const Param& p : params()) {
+    if (!p.settable()) continue;
+    std::size_t n = 0;
+    while (n < p.key.size() && n < key.size() && p.key[n] == key[n]) ++n;
+    if (n > best_len) best_len = n, best = &p;
+    all += (all.empty() ? "" : ", ") + std::string(p.key);
+  }
+  std::string msg = "unknown parameter '" + std::string(key) + "'";
+  if (best && best_len >= 3) msg += " (did you mean '" + std::string(best->key) + "'?)";
+  throw Error(msg + "; known: " + all);
+}
+
+std::vector<const Param*> params_of(std::string_view table) {
+  std::vector<const Param*> out;
+  for (const Param& p : params())
+    if (p.table() == table) out.push_back(&p);
+  return out;
+}
+
+std::string expectation(const Param& p) {
+  switch (p.type) {
+    case ParamType::number:
+      return "a number " + p.range.text();
+    case ParamType::integer:
+      return "an integer in [" + std::to_string(std::int64_t(p.range.lo)) + ", " +
+             std::to_string(std::int64_t(p.range.hi)) + "]";
+    case ParamType::boolean:
+      return "true or false";
+    case ParamType::choice:
+      return "one of " + join(p.choices) +
+             (p.ordinal_alias ? " or 0.." + std::to_string(p.choices.size() - 1) : "");
+    case ParamType::vec3:
+      return "three numbers, e.g. 0,2,6" +
+             (p.range.lo == -kInf ? std::string() : ", each " + p.range.text());
+    case ParamType::direction:
+      return "three numbers, not all zero, e.g. 0,-1,0";
+  }
+  return "";
+}
+
+std::string format_value(const Param& p, const ParamValue& value) {
+  const auto g = [](double v) {
+    std::ostringstream s;
+    s << static_cast<float>(v);
+    return s.str();
+  };
+  switch (p.type) {
+    case ParamType::number:
+      return g(std::get<double>(value));
+    case ParamType::integer:
+      return std::to_string(std::get<std::int64_t>(value));
+    case ParamType::boolean:
+      return std::get<bool>(value) ? "true" : "false";
+    case ParamType::choice: {
+      const auto i = std::get<std::int64_t>(value);
+      return i >= 0 && std::size_t(i) < p.choices.size() ? std::string(p.choices[std::size_t(i)])
+                                                         : std::to_string(i);
+    }
+    case ParamType::vec3:
+    case ParamType::direction: {
+      const glm::dvec3 v = std::get<glm::dvec3>(value);
+      return g(v.x) + "," + g(v.y) + "," + g(v.z);
+    }
+  }
+  return "";
+}
+
+ParamValue parse_value(const Param& p, std::string_view text) {
+  switch (p.type) {
+    case ParamType::number: {
+      const auto x = parse_number(text);
+      if (!x || !p.range.contains(*x)) bad(p, text);
+      return *x;
+    }
+    case ParamType::integer: {
+      const std::string s(text);
+      char* end = nullptr;
+      const long long x = std::strtoll(s.c_str(), &end, 10);
+      if (s.empty() || end != s.c_str() + s.size() || double(x) < p.range.lo ||
+          double(x) > p.range.hi)
+        bad(p, text);
+      return static_cast<std::int64_t>(x);
+    }
+    case ParamType::boolean:
+      if (text == "true" || text == "1" || text == "on") return true;
+      if (text == "false" || text == "0" || text == "off") return false;
+      bad(p, text);
+    case ParamType::choice:
+      for (std::size_t i = 0; i < p.choices.size(); ++i)
+        if (p.choices[i] == text) return static_cast<std::int64_t>(i);
+      if (p.ordinal_alias && text.size() == 1 && text[0] >= '0' &&
+          std::size_t(text[0] - '0') < p.choices.size())
+        return static_cast<std::int64_t>(text[0] - '0');
+      bad(p, text);
+    case ParamType::vec3:
+    case ParamType::direction: {
+      std::string s(text);
+      for (char& c : s)
+        if (c == ',' || c == '[' || c == ']') c = ' ';
+      std::istringstream in(s);
+      std::vector<std::string> parts;
+      for (std::string part; in >> part;) parts.push_back(part);
+      if (parts.size() != 3) bad(p, text);
+      glm::dvec3 v(0.0);
+      for (int i = 0; i < 3; ++i) {
+        const auto x = parse_number(parts[std::size_t(i)]);
+        if (!x || !p.range.contains(*x)) bad(p, text);
+        v[i] = *x;
+      }
+      if (p.type == ParamType::direction) {
+        const double len = glm::length(v);
+        if (!(len > 1e-9)) bad(p, text);
+        v /= len;
+      }
+      return v;
+    }
+  }
+  bad(p, text);
+}
+
+std::string default_text(const Param& p) {
+  Scene defaults;
+  defaults.sun = Sun{};
+  const auto v = p.get(defaults);
+  return v ? format_value(p, *v) : "";
+}
+
+std::string markdown_row(const Param& p) {
+  std::string type, def = default_text(p), range;
+  const auto quote = [](std::string_view w) { return "`" + std::string(w) + "`"; };
+  switch (p.type) {
+    case ParamType::number:
+      type = "number";
+      range = p.range.text();
+      if (range.rfind("in ", 0) == 0) range = range.substr(3);
+      break;
+    case ParamType::integer:
+      type = "integer";
+      range = "[" + std::to_string(std::int64_t(p.range.lo)) + ", " +
+              std::to_string(std::int64_t(p.range.hi)) + "]";
+      break;
+    case ParamType::boolean:
+      type = "bool";
+      break;
+    case ParamType::choice:
+      type = p.ordinal_alias ? "string or integer" : "string";
+      def = "`\"" + def + "\"`";
+      for (std::string_view c : p.choices) range += (range.empty() ? "" : ", ") + quote(c);
+      break;
+    case ParamType::vec3:
+    case ParamType::direction: {
+      type = p.name() == "color" ? "[r, g, b]" : "[x, y, z]";
+      std::string v;
+      for (char c : def) v += c == ',' ? std::string(", ") : std::string(1, c);
+      def = "[" + v + "]";
+      if (p.range.lo != -kInf) range = p.range.text();
+      break;
+    }
+  }
+  if (p.custom_read) def = "—";
+  const std::string meaning =
+      range.empty() ? std::string(p.doc) : range + "; " + std::string(p.doc);
+  return "| " + quote(p.name()) + " | " + type + " | " + def + " | " + meaning + " |";
+}
+
+std::string markdown_rows(std::string_view table) {
+  std::string out;
+  for (const Param* p : params_of(table)) out += markdown_row(*p) + "\n";
+  return out;
+}
+
+std::string get_param(const Scene& scene, std::string_view key) {
+  const Param& p = param(key);
+  const auto v = p.get(scene);
+  if (!v) return "(no " + std::string(p.table()) + ")";
+  return format_value(p, *v);
+}
+
+void set_param(Scene& scene, std::string_view key, std::string_view text) {
+  const Param& p = param(key);
+  if (!p.settable())
+    throw Error(std::string(key) + ": set in the scene file only (the session's size and frame " +
+                "count come from its window or flags)");
+  const ParamValue v = parse_value(p, text);
+  Scene next = scene;
+  try {
+    p.set(next, v);
+  } catch (const Error& e) {
+    throw Error(std::string(key) + ": " + e.what());
+  }
+  if (p.check != nullptr) {
+    const std::string violation = p.check(next);
+    if (!violation.empty())
+      throw Error(std::string(key) + " " + std::string(text) + ": " + violation);
+  }
+  p.set(scene, v);
+}
+
+std::string camera_violation(const Scene& scene) {
+  const Camera& c = scene.camera;
+  const glm::vec3 view = c.target - c.position;
+  if (!(glm::length(view) > 1e-6f)) return "the camera's target equals its position";
+  if (glm::length(glm::cross(glm::normalize(view), c.up)) < 1e-4f)
+    return "camera.up is parallel to the view direction (target - position)";
+  if (!(c.far > c.near))
+    return "camera.far = " + number_text(c.far) +
+           " must be greater than near = " + number_text(c.near);
+  return "";
+}
+
+}  // namespace penumbra::scene

@@ -1,0 +1,246 @@
+// The parameter table (scene/params.hpp), walked row by row: every key parses from a scene file,
+// round-trips through set/get (what the runtime's `set`/`get` and the panel call), is rejected
+// out of range with the file's line and the key, and appears in docs/scenes.md as the table
+// generates it.
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <penumbra/core/error.hpp>
+#include <penumbra/scene/params.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <set>
+#include <sstream>
+#include <string>
+
+namespace penumbra::scene {
+namespace {
+
+using ::testing::HasSubstr;
+
+const std::string kBox = "[[object]]\nmesh = \"box\"\n";
+
+Scene parse(const std::string& text) {
+  return parse_scene(text, "params.toml", ".");
+}
+
+std::string error_of(const std::string& text) {
+  try {
+    parse(text);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "(no error)";
+}
+
+std::string set_error(const std::string& key, const std::string& text) {
+  Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
+  const std::string before = get_param(scene, key);
+  try {
+    set_param(scene, key, text);
+  } catch (const Error& e) {
+    EXPECT_EQ(get_param(scene, key), before) << key << ": a rejected set changed the scene";
+    return e.what();
+  }
+  return "(no error)";
+}
+
+// A value in range and different from the default, as TOML and as `set` text.
+struct Sample {
+  std::string toml, text;
+};
+
+Sample sample(const Param& p) {
+  const std::string def = default_text(p);
+  switch (p.type) {
+    case ParamType::number:
+      for (double x : {0.37, 1.7, 3.25, 0.0125, 1e-4, 45.5, 5000.0}) {
+        std::ostringstream s;
+        s << x;
+        if (!p.range.contains(x) || s.str() == def) continue;
+        // In range and within the row's cross-key checks against the other defaults.
+        Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
+        if (p.check != nullptr) {
+          p.set(scene, x);
+          if (!p.check(scene).empty()) continue;
+        }
+        return {s.str(), s.str()};
+      }
+      break;
+    case ParamType::integer: {
+      const auto lo = static_cast<long long>(p.range.lo);
+      const std::string v = std::to_string(std::to_string(lo) == def ? lo + 1 : lo);
+      return {v, v};
+    }
+    case ParamType::boolean:
+      return def == "true" ? Sample{"false", "false"} : Sample{"true", "true"};
+    case ParamType::choice: {
+      const std::string v(p.choices.back() == def ? p.choices.front() : p.choices.back());
+      return {"\"" + v + "\"", v};
+    }
+    case ParamType::vec3:
+      return {"[0.25, 0.5, 0.75]", "0.25,0.5,0.75"};
+    case ParamType::direction:
+      return {"[0, -2, 1]", "0,-2,1"};
+  }
+  ADD_FAILURE() << p.key << ": no in-range sample";
+  return {};
+}
+
+// A value of the right type outside the range (empty when the range has no bound to cross).
+std::string out_of_range(const Param& p) {
+  switch (p.type) {
+    case ParamType::number:
+    case ParamType::integer: {
+      std::ostringstream s;
+      if (std::isfinite(p.range.hi))
+        s << p.range.hi + 1.0;
+      else if (std::isfinite(p.range.lo))
+        s << (p.range.lo_open ? p.range.lo : p.range.lo - 1.0);
+      return s.str();
+    }
+    case ParamType::choice:
+      return "\"no_such_choice\"";
+    case ParamType::vec3:
+      return std::isfinite(p.range.lo) ? "[-1, 0.5, 0.5]" : "";
+    case ParamType::direction:
+      return "[0, 0, 0]";
+    case ParamType::boolean:
+      return "\"yes\"";
+  }
+  return "";
+}
+
+std::string file_of(const Param& p, const std::string& toml) {
+  std::string prefix;
+  if (p.table() != "sun") prefix = "[sun]\ndirection = [0, -1, 0]\n";
+  const std::string key(p.custom_read ? "direction" : p.name());
+  return prefix + "[" + std::string(p.table()) + "]\n" +
+         (p.table() == "sun" && key != "direction" ? "direction = [0, -1, 0]\n" : "") + key +
+         " = " + toml + "\n" + kBox;
+}
+
+std::string docs_section(std::string_view table) {
+  std::ifstream in(PENUMBRA_DOCS_DIR "/scenes.md");
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string all = text.str();
+  const std::string head = "## `[" + std::string(table) + "]`";
+  const auto start = all.find(head);
+  if (start == std::string::npos) return "";
+  const auto end = all.find("\n## ", start + head.size());
+  return all.substr(start, end == std::string::npos ? std::string::npos : end - start);
+}
+
+TEST(Params, EveryKeyIsUniqueAndNamesItsTable) {
+  std::set<std::string_view> seen;
+  for (const Param& p : params()) {
+    EXPECT_TRUE(seen.insert(p.key).second) << p.key;
+    EXPECT_NE(p.key.find('.'), std::string_view::npos) << p.key;
+    EXPECT_FALSE(p.doc.empty()) << p.key;
+    ASSERT_NE(p.get, nullptr) << p.key;
+    ASSERT_NE(p.set, nullptr) << p.key;
+    EXPECT_EQ(find_param(p.key), &p);
+    if (p.type == ParamType::choice) EXPECT_GE(p.choices.size(), 2u) << p.key;
+  }
+  EXPECT_GE(params().size(), 40u);
+}
+
+TEST(Params, EveryKeyParsesFromAFileAndRoundTripsThroughSetAndGet) {
+  for (const Param& p : params()) {
+    SCOPED_TRACE(std::string(p.key));
+    const Sample s = sample(p);
+    Scene from_file;
+    ASSERT_NO_THROW(from_file = parse(file_of(p, s.toml))) << error_of(file_of(p, s.toml));
+    const std::string read = get_param(from_file, p.key);
+    EXPECT_NE(read, default_text(p)) << "the file's value was not applied";
+    // The same value through set, then get, gives the same text; setting what get returned
+    // changes nothing.
+    if (!p.settable()) {
+      Scene scene = parse(kBox);
+      EXPECT_THROW(set_param(scene, p.key, s.text), Error);
+      continue;
+    }
+    Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
+    set_param(scene, p.key, s.text);
+    EXPECT_EQ(get_param(scene, p.key), read);
+    set_param(scene, p.key, get_param(scene, p.key));
+    EXPECT_EQ(get_param(scene, p.key), read);
+  }
+}
+
+TEST(Params, OutOfRangeValuesAreRejectedWithFileLineAndKey) {
+  int checked = 0;
+  for (const Param& p : params()) {
+    SCOPED_TRACE(std::string(p.key));
+    const std::string bad = out_of_range(p);
+    if (bad.empty()) continue;
+    const std::string text = file_of(p, bad);
+    // The key's line in the file: its table's header is the line before it.
+    std::istringstream lines(text);
+    int line = 0, key_line = 0;
+    const std::string key(p.custom_read ? "direction" : p.name());
+    for (std::string l; std::getline(lines, l);) {
+      ++line;
+      if (l.rfind(key + " = " + bad, 0) == 0) key_line = line;
+    }
+    ASSERT_GT(key_line, 0);
+    const std::string message = error_of(text);
+    EXPECT_THAT(message, HasSubstr("params.toml:" + std::to_string(key_line) + ":"));
+    EXPECT_THAT(message, HasSubstr(key));
+    // set rejects the same value, naming the key, and leaves the scene as it was.
+    if (p.settable()) {
+      std::string set_text = bad;
+      if (set_text.front() == '"') set_text = set_text.substr(1, set_text.size() - 2);
+      if (set_text.front() == '[') set_text = set_text.substr(1, set_text.size() - 2);
+      EXPECT_THAT(set_error(std::string(p.key), set_text), HasSubstr(std::string(p.key)));
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 35);
+}
+
+TEST(Params, CrossKeyChecksHoldInFilesAndSets) {
+  EXPECT_THAT(
+      error_of("[shadows]\npcss_min_filter_texels = 8\npcss_max_filter_texels = 4\n" + kBox),
+      HasSubstr("params.toml:2: shadows.pcss_min_filter_texels = 8 must not exceed"));
+  EXPECT_THAT(set_error("shadows.pcss_min_filter_texels", "40"), HasSubstr("must not exceed"));
+  EXPECT_THAT(set_error("camera.far", "0.01"), HasSubstr("must be greater than near"));
+  EXPECT_THAT(set_error("camera.target", "0,2,6"), HasSubstr("target equals its position"));
+  Scene no_sun = parse(kBox);
+  EXPECT_THROW(set_param(no_sun, "sun.intensity", "2"), Error);
+  EXPECT_EQ(get_param(no_sun, "sun.intensity"), "(no sun)");
+}
+
+TEST(Params, EveryKeyAppearsInDocsScenesMdAsTheTableGeneratesIt) {
+  for (const Param& p : params()) {
+    const std::string section = docs_section(p.table());
+    ASSERT_FALSE(section.empty()) << "docs/scenes.md has no section ## `[" << p.table() << "]`";
+    EXPECT_THAT(section, HasSubstr(markdown_row(p) + "\n"))
+        << "docs/scenes.md is out of date; the [" << p.table() << "] rows are:\n"
+        << markdown_rows(p.table());
+  }
+}
+
+TEST(Params, ChoicesAreTheEnumsNames) {
+  EXPECT_EQ(to_string(Filter::poisson), "poisson");
+  EXPECT_EQ(to_string(CascadeFit::slice_sphere), "slice_sphere");
+  EXPECT_EQ(to_string(DebugView::penumbra), "penumbra");
+  EXPECT_EQ(param("render.view").choices.size(), std::size_t(DebugView::penumbra) + 1);
+  EXPECT_EQ(param("shadows.filter").choices.size(), std::size_t(Filter::poisson) + 1);
+  EXPECT_THAT(
+      [] {
+        try {
+          param("shadows.filtr");
+        } catch (const Error& e) {
+          return std::string(e.what());
+        }
+        return std::string();
+      }(),
+      HasSubstr("did you mean 'shadows.filter'"));
+}
+
+}  // namespace
+}  // namespace penumbra::scene
