@@ -247,6 +247,21 @@ void ContactShadowPass::create() {
                     VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT | VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT)) {
     throw Error("ContactShadowPass: " + ctx_.info().name + " cannot store to R8_UNORM images");
   }
+  create_pipelines();
+
+  gpu::ImageDesc r;
+  r.format = VK_FORMAT_R32_SFLOAT;
+  r.width = width_;
+  r.height = height_;
+  r.usage =
+      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
+  resolved_ = std::make_unique<gpu::Image>(ctx_, r);
+  gpu::ImageDesc m = r;
+  m.format = VK_FORMAT_R8_UNORM;
+  mask_ = std::make_unique<gpu::Image>(ctx_, m);
+}
+
+void ContactShadowPass::create_pipelines() {
   if (!given_march_spirv_.empty()) {
     resolve_spirv_ = given_resolve_spirv_;
     march_spirv_ = given_march_spirv_;
@@ -259,17 +274,26 @@ void ContactShadowPass::create() {
   spec.set<std::uint32_t>(0, reads_ != ContactDepthReads::nearest_only ? 1u : 0u);
   spec.set<std::uint32_t>(1, reads_ != ContactDepthReads::bilinear_only ? 1u : 0u);
   gpu_ = std::make_unique<Gpu>(ctx_, resolve_spirv_, march_spirv_, std::move(spec));
+}
 
-  gpu::ImageDesc r;
-  r.format = VK_FORMAT_R32_SFLOAT;
-  r.width = width_;
-  r.height = height_;
-  r.usage =
-      VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT;
-  resolved_ = std::make_unique<gpu::Image>(ctx_, r);
-  gpu::ImageDesc m = r;
-  m.format = VK_FORMAT_R8_UNORM;
-  mask_ = std::make_unique<gpu::Image>(ctx_, m);
+void ContactShadowPass::set_spirv(std::vector<std::uint32_t> march_spirv,
+                                  std::vector<std::uint32_t> resolve_spirv) {
+  if (march_spirv.empty() || resolve_spirv.empty())
+    throw Error("ContactShadowPass::set_spirv: both stages' SPIR-V are needed");
+  std::swap(given_march_spirv_, march_spirv);
+  std::swap(given_resolve_spirv_, resolve_spirv);
+  if (!enabled()) return;
+  auto old = std::move(gpu_);
+  try {
+    create_pipelines();
+  } catch (...) {
+    std::swap(given_march_spirv_, march_spirv);
+    std::swap(given_resolve_spirv_, resolve_spirv);
+    resolve_spirv_ = given_resolve_spirv_;
+    march_spirv_ = given_march_spirv_;
+    gpu_ = std::move(old);
+    throw;
+  }
 }
 
 void ContactShadowPass::destroy() {

@@ -175,6 +175,11 @@ class ContactShadowPass {
   const std::vector<std::string>& recorded_commands() const { return recorded_; }
   // Compute pipelines that exist now (0 while disabled, 2 when enabled).
   std::uint32_t pipeline_count() const;
+
+  // Hot reload: new SPIR-V for both stages. Recreates the two pipelines only; the mask and the
+  // resolved depth stay the same images, so whoever samples them needs no new descriptors. On
+  // an error (the pipelines cannot be created) the pass keeps its previous pipelines.
+  void set_spirv(std::vector<std::uint32_t> march_spirv, std::vector<std::uint32_t> resolve_spirv);
   // The push constants of the last recorded march.
   const ContactShadowGpu& last_params() const { return last_params_; }
 
@@ -190,6 +195,7 @@ class ContactShadowPass {
   struct Gpu;
   void create();
   void destroy();
+  void create_pipelines();
 
   gpu::Context& ctx_;
   std::uint32_t width_ = 0, height_ = 0;

@@ -1,0 +1,49 @@
+// Contact shadows toward the sun: ContactShadowPass (depth resolve + march) over the prepass's
+// depth and normals, into the contact mask. A shader edit gives the pass new pipelines; its mask
+// stays the same image, so the passes that sample it keep their descriptor sets.
+
+#include "passes.hpp"
+
+namespace penumbra::render::passes {
+
+ContactPass::ContactPass(FrameResources& r) {
+  ContactShadowPassDesc desc;
+  desc.width = r.width;
+  desc.height = r.height;
+  desc.settings = r.scene.contact;
+  desc.shader_dir = r.registry.shader_dir();
+  r.add_pipeline("contact-shadows (depth resolve + march)",
+                 {{"contact_shadows.comp", {}}, {"depth_resolve.comp", {}}},
+                 [this, &r, desc](const shader::Spirvs& spirv) {
+                   if (pass_) {
+                     pass_->set_spirv(spirv[0], spirv[1]);
+                     return;
+                   }
+                   ContactShadowPassDesc d = desc;
+                   d.march_spirv = spirv[0];
+                   d.resolve_spirv = spirv[1];
+                   pass_ = std::make_unique<ContactShadowPass>(r.ctx, d);
+                   r.contact_mask = pass_->mask();
+                 });
+  r.report.passes.push_back("contact-shadows: compute (" +
+                            std::to_string(desc.settings.step_count) + " steps)");
+  r.report.images.push_back("contact-mask " + std::to_string(r.width) + "x" +
+                            std::to_string(r.height) + " R8 + resolved depth R32F");
+}
+
+PassIo ContactPass::io() const {
+  return {{"depth", "normal"}, {"contact-mask"}};
+}
+
+void ContactPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
+  ContactShadowFrame f;
+  const auto cam = frame_camera(r.scene, r.width, r.height);
+  f.camera = ContactCamera::from(
+      cam, r.reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard);
+  f.light_dir_view = to_contact_view(cam, -glm::dvec3(r.scene.sun->direction));
+  f.frame = r.packed.frame.mode.x;
+  pass_->record(cmd, r.depth, r.normal, f);
+  mark("contact-shadows");
+}
+
+}  // namespace penumbra::render::passes

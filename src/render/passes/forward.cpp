@@ -1,0 +1,93 @@
+// The forward pass: every light with its shadows (the sun's from the shadow-info image, spots
+// and points from their maps, the contact mask), into the HDR image; with visibility_output it
+// also writes each light's visibility as the lighting used it (what the reference compares).
+
+#include "passes.hpp"
+
+namespace penumbra::render::passes {
+
+ForwardPass::ForwardPass(FrameResources& r, const ShadowMapPass* maps) {
+  const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
+  const auto& req = r.req;
+  std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}};
+  if (req.sun_shadows) b.push_back({1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+  if (r.contact_mask) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+  if (req.spot_shadow_maps) {
+    b.push_back({3, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
+    b.push_back({4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+  }
+  if (req.point_shadow_cubes) {
+    b.push_back({5, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
+    b.push_back({6, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
+  }
+  layout_ = std::make_unique<gpu::PipelineLayout>(
+      r.ctx, std::vector<std::vector<gpu::BindingDesc>>{b}, uint32_t(sizeof(DrawPush)), all);
+  auto defines = light_defines(r);
+  if (r.visibility_output) defines.push_back({"PENUMBRA_VISIBILITY_OUTPUT", "1"});
+  for (bool masked : {false, true}) {
+    if (masked && !req.masked_materials) continue;
+    r.add_pipeline(variant(std::string("forward-") + (masked ? "masked" : "opaque"), defines),
+                   {{"render/geometry.vert", {}}, {"render/forward.frag", defines}},
+                   [this, &r, masked](const shader::Spirvs& spirv) {
+                     gpu::GraphicsPipelineDesc d;
+                     d.vertex_spirv = spirv[0];
+                     d.fragment_spirv = spirv[1];
+                     d.vertex_input = vertex_input();
+                     d.color_formats = {kHdrFormat};
+                     if (r.visibility_output)
+                       d.color_formats.insert(d.color_formats.end(), 2, kVisibilityFormat);
+                     d.depth_format = kDepthFormat;
+                     d.depth_write = false;
+                     // The prepass wrote the nearest surface; "not behind it" rather than EQUAL
+                     // tolerates last-bit differences between two pipelines.
+                     d.depth_compare = r.depth_test(false);
+                     d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
+                     (masked ? masked_ : opaque_) =
+                         std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, *layout_);
+                   });
+  }
+  set_ = r.pool.allocate(layout_->set_layout(0));
+  gpu::DescriptorWriter w;
+  w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+  if (req.sun_shadows) w.combined_image(1, r.info.view(), r.nearest.handle());
+  if (r.contact_mask) w.combined_image(2, r.contact_mask->view(), r.nearest.handle());
+  if (req.spot_shadow_maps) {
+    w.buffer(3, maps->spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    w.combined_image(4, maps->spot_maps.view(), r.shadow_compare.handle());
+  }
+  if (req.point_shadow_cubes) {
+    w.buffer(5, maps->point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+    w.combined_image(6, maps->point_cubes.view(), r.shadow_compare.handle());
+  }
+  w.update(r.ctx, set_);
+  r.report.passes.push_back("forward: lighting");
+}
+
+PassIo ForwardPass::io() const {
+  return {{"frame", "depth", "shadow-info", "contact-mask", "spot-shadow-map", "point-shadow-map"},
+          {"hdr", "visibility"}};
+}
+
+void ForwardPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
+  r.depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
+  r.hdr.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+  std::vector<VkImageView> visibility_views;
+  if (r.visibility_output)
+    for (auto& v : r.visibility) {
+      v.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
+      visibility_views.push_back(v.view());
+    }
+  const glm::vec3 sky =
+      r.scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
+  begin_rendering(cmd, r, r.width, r.height, r.hdr.view(), {{sky.r, sky.g, sky.b, 1.0f}},
+                  r.depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false, visibility_views);
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_->handle(), 0, 1, &set_, 0,
+                          nullptr);
+  draw_meshes(cmd, r, *layout_, opaque_->handle(), masked_ ? masked_->handle() : VK_NULL_HANDLE,
+              false, glm::uvec4(0));
+  vkCmdEndRendering(cmd);
+  r.hdr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  mark("forward");
+}
+
+}  // namespace penumbra::render::passes

@@ -1,0 +1,185 @@
+#pragma once
+
+// The renderer's passes (internal to penumbra::render). Each pass builds its pipelines and
+// descriptor sets from the shared FrameResources, declares the images it reads and writes, and
+// records its commands against them. The renderer (renderer.cpp) owns the resources, orders the
+// passes, writes the timestamps and keeps the build report. docs/architecture.md has the data
+// path of a frame and where to change what.
+
+#include <functional>
+#include <memory>
+#include <penumbra/gpu/commands.hpp>
+#include <penumbra/gpu/pipeline.hpp>
+#include <penumbra/gpu/resources.hpp>
+#include <penumbra/render/contact_shadows.hpp>
+#include <penumbra/render/frame_pack.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/shader/registry.hpp>
+#include <string>
+#include <vector>
+
+namespace penumbra::render::passes {
+
+inline constexpr VkFormat kDepthFormat = VK_FORMAT_D32_SFLOAT;
+inline constexpr VkFormat kNormalFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+inline constexpr VkFormat kHdrFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+inline constexpr VkFormat kInfoFormat = VK_FORMAT_R16G16B16A16_SFLOAT;
+inline constexpr VkFormat kLdrFormat = VK_FORMAT_R8G8B8A8_UNORM;
+inline constexpr VkFormat kVisibilityFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
+
+struct GpuMesh {
+  gpu::Buffer vertices, indices;
+  uint32_t index_count = 0;
+};
+
+// What every pass builds from and records against.
+struct FrameResources {
+  FrameResources(gpu::Context& c, scene::Scene& s, BuildReport& r, shader::ProgramRegistry& g)
+      : ctx(c), scene(s), report(r), registry(g), pool(c, 16) {}
+
+  gpu::Context& ctx;
+  scene::Scene& scene;  // the renderer's (set() may change frame-only keys between frames)
+  BuildReport& report;
+  shader::ProgramRegistry& registry;
+  gpu::DescriptorPool pool;
+  uint32_t width = 0, height = 0;
+  bool reverse_z = true;
+  bool visibility_output = false;
+  scene::Scene::Requirements req{};
+
+  std::vector<GpuMesh> meshes;
+  gpu::Buffer frame_ubo;
+  // Screen-sized images: depth and view-space normals (prepass), the sun's shadow info (shadow
+  // resolve), the lit HDR colour and per-light visibility (forward), the output (tonemap).
+  gpu::Image depth, normal, info, hdr, ldr;
+  gpu::Image visibility[2];
+  gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
+  gpu::Sampler nearest, shadow_compare, raw_depth;
+  PackedFrame packed;  // this frame's GPU data (pack_frame)
+
+  // A render target or shadow map, listed in the build report.
+  gpu::Image make_image(const std::string& name, gpu::ImageKind kind, VkFormat format, uint32_t w,
+                        uint32_t h, uint32_t layers, VkImageUsageFlags usage);
+  // A pipeline in the program registry: a shader edit rebuilds exactly the pipelines whose
+  // sources (or their includes) read the edited file.
+  void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
+                    std::function<void(const shader::Spirvs&)> create);
+  VkCompareOp depth_test(bool strict) const;  // nearer passes (reverse-Z: greater)
+};
+
+// Records `name` in the timestamps after the commands before it.
+using Mark = std::function<void(const std::string& name)>;
+
+// What a pass reads and writes, by image name (the build report prints it).
+struct PassIo {
+  std::vector<std::string> reads, writes;
+};
+
+class Pass {
+ public:
+  virtual ~Pass() = default;
+  virtual PassIo io() const = 0;
+  virtual void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) = 0;
+};
+
+// ---- shared recording helpers (recording.cpp) --------------------------------------------
+
+gpu::VertexInput vertex_input();
+// "forward-opaque PENUMBRA_SUN_SHADOWS=1 ...": a pipeline name with its variant defines.
+std::string variant(const std::string& name, const std::vector<shader::Define>& defines);
+// Every draw of the frame (casters only, or all), opaque then masked, with `index` pushed.
+void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                 VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
+// Dynamic rendering into an optional colour target (cleared to `clear`, extra targets cleared
+// to 0) and a depth target (cleared to far, or loaded), with a full viewport and scissor.
+void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,
+                     VkImageView color, VkClearColorValue clear, VkImageView depth_view,
+                     VkImageLayout depth_layout, bool clear_depth,
+                     const std::vector<VkImageView>& extra_colors = {});
+
+// ---- the passes, in frame order ----------------------------------------------------------
+
+// Every light's shadow maps as one list of shadow views: the sun's cascades (a 2D array), the
+// spot maps (a 2D array) and the point cubes (a cube array).
+class ShadowMapPass final : public Pass {
+ public:
+  explicit ShadowMapPass(FrameResources& r);
+  ~ShadowMapPass() override;
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  void upload(const PackedFrame& packed);  // the light matrices of this frame
+
+  gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
+  gpu::Buffer sun_ubo, spot_ubo, point_ubo;
+
+ private:
+  struct View;
+  std::vector<View> views_;
+};
+
+class PrepassPass final : public Pass {
+ public:
+  explicit PrepassPass(FrameResources& r);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::GraphicsPipeline> opaque_, masked_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+// The sun: cascade selection, biases and the filter, per pixel, into the shadow-info image.
+class ShadowResolvePass final : public Pass {
+ public:
+  ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::ComputePipeline> pipeline_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+// Screen-space contact shadows toward the sun (ContactShadowPass), into the contact mask.
+class ContactPass final : public Pass {
+ public:
+  explicit ContactPass(FrameResources& r);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<ContactShadowPass> pass_;
+};
+
+// Lighting: every light with its shadows, into the HDR image (and the visibility targets).
+class ForwardPass final : public Pass {
+ public:
+  ForwardPass(FrameResources& r, const ShadowMapPass* maps);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::GraphicsPipeline> opaque_, masked_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+// Exposure and tonemapping, or one of the debug views, into the output image.
+class TonemapPass final : public Pass {
+ public:
+  explicit TonemapPass(FrameResources& r);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::ComputePipeline> pipeline_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
+// The defines every lit pass's variant is built with (what the scene requires).
+std::vector<shader::Define> light_defines(const FrameResources& r);
+
+}  // namespace penumbra::render::passes

@@ -1,0 +1,137 @@
+// What the passes share: FrameResources' build helpers and the recording helpers.
+
+#include <penumbra/gpu/check.hpp>
+
+#include "passes.hpp"
+
+namespace penumbra::render::passes {
+namespace {
+
+std::string format_name(VkFormat f) {
+  switch (f) {
+    case VK_FORMAT_D32_SFLOAT:
+      return "D32_SFLOAT";
+    case VK_FORMAT_R16G16B16A16_SFLOAT:
+      return "RGBA16F";
+    case VK_FORMAT_R8G8B8A8_UNORM:
+      return "RGBA8";
+    case VK_FORMAT_R32_SFLOAT:
+      return "R32F";
+    case VK_FORMAT_R32G32B32A32_SFLOAT:
+      return "RGBA32F";
+    default:
+      return std::to_string(int(f));
+  }
+}
+
+void viewport(VkCommandBuffer cmd, uint32_t w, uint32_t h) {
+  VkViewport vp{0, 0, float(w), float(h), 0, 1};
+  VkRect2D sc{{0, 0}, {w, h}};
+  vkCmdSetViewport(cmd, 0, 1, &vp);
+  vkCmdSetScissor(cmd, 0, 1, &sc);
+}
+
+}  // namespace
+
+gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind kind, VkFormat format,
+                                      uint32_t w, uint32_t h, uint32_t layers,
+                                      VkImageUsageFlags usage) {
+  gpu::ImageDesc d;
+  d.kind = kind;
+  d.format = format;
+  d.width = w;
+  d.height = h;
+  d.layers = layers;
+  d.usage = usage;
+  report.images.push_back(name + " " + std::to_string(w) + "x" + std::to_string(h) +
+                          (layers > 1 ? "x" + std::to_string(layers) : "") + " " +
+                          format_name(format));
+  return gpu::Image(ctx, d);
+}
+
+void FrameResources::add_pipeline(const std::string& name,
+                                  std::vector<shader::ProgramSource> sources,
+                                  std::function<void(const shader::Spirvs&)> create) {
+  registry.add(name, std::move(sources), std::move(create));
+  report.pipelines.push_back(name);
+}
+
+VkCompareOp FrameResources::depth_test(bool strict) const {
+  if (strict) return reverse_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS;
+  return reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
+}
+
+gpu::VertexInput vertex_input() {
+  gpu::VertexInput v;
+  v.bindings = {{0, sizeof(scene::Vertex), VK_VERTEX_INPUT_RATE_VERTEX}};
+  v.attributes = {{0, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, position)},
+                  {1, 0, VK_FORMAT_R32G32B32_SFLOAT, offsetof(scene::Vertex, normal)},
+                  {2, 0, VK_FORMAT_R32G32_SFLOAT, offsetof(scene::Vertex, uv)}};
+  return v;
+}
+
+std::string variant(const std::string& name, const std::vector<shader::Define>& defines) {
+  std::string s = name;
+  for (const auto& x : defines) s += " " + x.name + "=" + x.value;
+  return s;
+}
+
+std::vector<shader::Define> light_defines(const FrameResources& r) {
+  return {{"PENUMBRA_SUN_SHADOWS", r.req.sun_shadows ? "1" : "0"},
+          {"PENUMBRA_CONTACT", r.contact_mask != nullptr ? "1" : "0"},
+          {"PENUMBRA_SPOT_SHADOWS", std::to_string(r.req.spot_shadow_maps)},
+          {"PENUMBRA_POINT_SHADOWS", std::to_string(r.req.point_shadow_cubes)}};
+}
+
+void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                 VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index) {
+  for (int pass = 0; pass < 2; ++pass) {
+    VkPipeline p = pass == 0 ? opaque : masked;
+    if (p == VK_NULL_HANDLE) continue;
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
+    for (const auto& d : r.packed.draws) {
+      if (d.masked != (pass == 1) || (casters_only && !d.casts)) continue;
+      const GpuMesh& m = r.meshes[d.mesh];
+      if (m.index_count == 0) continue;
+      DrawPush push = d.push;
+      push.index = index;
+      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
+      VkDeviceSize offset = 0;
+      VkBuffer vb = m.vertices.handle();
+      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
+      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+    }
+  }
+}
+
+void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,
+                     VkImageView color, VkClearColorValue clear, VkImageView depth_view,
+                     VkImageLayout depth_layout, bool clear_depth,
+                     const std::vector<VkImageView>& extra_colors) {
+  std::vector<VkRenderingAttachmentInfo> cas(1 + extra_colors.size(),
+                                             {VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO});
+  for (size_t i = 0; i < cas.size(); ++i) {
+    cas[i].imageView = i == 0 ? color : extra_colors[i - 1];
+    cas[i].imageLayout = VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
+    cas[i].loadOp = VK_ATTACHMENT_LOAD_OP_CLEAR;
+    cas[i].storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+    cas[i].clearValue.color = i == 0 ? clear : VkClearColorValue{};
+  }
+  VkRenderingAttachmentInfo da{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+  da.imageView = depth_view;
+  da.imageLayout = depth_layout;
+  da.loadOp = clear_depth ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+  da.storeOp = clear_depth ? VK_ATTACHMENT_STORE_OP_STORE : VK_ATTACHMENT_STORE_OP_NONE;
+  da.clearValue.depthStencil = {r.reverse_z ? 0.0f : 1.0f, 0};
+  VkRenderingInfo ri{VK_STRUCTURE_TYPE_RENDERING_INFO};
+  ri.renderArea = {{0, 0}, {w, h}};
+  ri.layerCount = 1;
+  ri.colorAttachmentCount = color != VK_NULL_HANDLE ? uint32_t(cas.size()) : 0;
+  ri.pColorAttachments = color != VK_NULL_HANDLE ? cas.data() : nullptr;
+  ri.pDepthAttachment = &da;
+  vkCmdBeginRendering(cmd, &ri);
+  viewport(cmd, w, h);
+}
+
+}  // namespace penumbra::render::passes
