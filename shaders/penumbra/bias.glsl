@@ -15,6 +15,8 @@
 #ifndef PENUMBRA_BIAS_GLSL
 #define PENUMBRA_BIAS_GLSL
 
+#include "penumbra/finite.glsl"
+
 // Smallest normal float. A squared vector length below it (zero, or a denormal the GPU may flush
 // to zero) makes the vector degenerate; an N.L below it makes tan(theta) unbounded.
 const float kBiasMinNormal = 1.175494351e-38;
@@ -31,30 +33,14 @@ const float kReceiverPlaneMinDet = 1.0e-4;
 // 2^100, are first scaled by 2^-64 together with their dividends (exact: a power of two).
 const float kBiasLargeDivisor = 1.2676506e30;
 
-// Returns true when x is neither NaN nor an infinity (tested on the bits: drivers may assume
-// comparisons never see a NaN or an infinity, integer operations are never folded that way).
-bool bias_is_finite(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u;
-}
-
-// Returns true when x is NaN (tested on the bits, like bias_is_finite).
-bool bias_is_nan(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) > 0x7f800000u;
-}
-
-// Returns true when every component of v is finite.
-bool bias_is_finite(vec3 v) {
-  return bias_is_finite(v.x) && bias_is_finite(v.y) && bias_is_finite(v.z);
-}
-
 // Returns sin(theta) in [0, 1] between normal and to_light: |N x L| for unit N, L when N.L > 0,
 // and 1 (grazing) when N.L <= 0, when to_light is degenerate (zero, denormal or non-finite) and
 // when normal is degenerate (the offset along a degenerate normal is zero anyway).
 float normal_offset_scale(vec3 normal, vec3 to_light) {
   float nn = dot(normal, normal);
   float ll = dot(to_light, to_light);
-  if (!(nn >= kBiasMinNormal) || !(ll >= kBiasMinNormal) || !bias_is_finite(nn) ||
-      !bias_is_finite(ll)) {
+  if (!(nn >= kBiasMinNormal) || !(ll >= kBiasMinNormal) || !penumbra_is_finite(nn) ||
+      !penumbra_is_finite(ll)) {
     return 1.0;
   }
   vec3 n = normal * inversesqrt(nn);
@@ -74,7 +60,7 @@ float normal_offset_scale(vec3 normal, vec3 to_light) {
 // non-finite). texel_world_size is the cascade's CascadeGpu.params.x.
 vec3 normal_offset(vec3 normal, vec3 to_light, float texel_world_size, float offset_texels) {
   float nn = dot(normal, normal);
-  if (!(nn >= kBiasMinNormal) || !bias_is_finite(nn)) return vec3(0.0);
+  if (!(nn >= kBiasMinNormal) || !penumbra_is_finite(nn)) return vec3(0.0);
   float distance = offset_texels * texel_world_size * normal_offset_scale(normal, to_light);
   return normal * (inversesqrt(nn) * distance);
 }
@@ -84,7 +70,7 @@ vec3 normal_offset(vec3 normal, vec3 to_light, float texel_world_size, float off
 // FLT_MIN, where tan(theta) is unbounded. Never NaN or infinite for finite parameters. The result
 // is in the units of constant_bias and max_bias (depth units, or world units along the light).
 float slope_scaled_bias(float n_dot_l, float constant_bias, float slope_scale, float max_bias) {
-  if (bias_is_nan(n_dot_l) || !(n_dot_l >= kBiasMinNormal)) return max_bias;
+  if (penumbra_is_nan(n_dot_l) || !(n_dot_l >= kBiasMinNormal)) return max_bias;
   float c = min(n_dot_l, 1.0);  // also maps +Inf to 1
   // tan(acos(c)) = sqrt(1 - c^2) / c, with 1 - c^2 factored to stay accurate near c = 1. With
   // c >= FLT_MIN the quotient is at most 1 / FLT_MIN, finite; the product may overflow to +Inf,
@@ -102,13 +88,13 @@ float slope_scaled_bias(float n_dot_l, float constant_bias, float slope_scale, f
 // is not finite, or when the gradient overflows. The gradient is in the depth convention of the
 // coords (no sign change is needed for reverse-Z).
 vec2 receiver_plane_depth_gradient(vec3 coord_ddx, vec3 coord_ddy) {
-  if (!bias_is_finite(coord_ddx) || !bias_is_finite(coord_ddy)) return vec2(0.0);
+  if (!penumbra_is_finite(coord_ddx) || !penumbra_is_finite(coord_ddy)) return vec2(0.0);
   float ad = coord_ddx.x * coord_ddy.y;  // du/dx * dv/dy
   float bc = coord_ddy.x * coord_ddx.y;  // du/dy * dv/dx
   float size = abs(ad) + abs(bc);
   // Products that underflow (denormal or zero: flushed on some GPUs, not on others) or overflow
   // carry no usable determinant.
-  if (!(size >= kBiasMinNormal) || !bias_is_finite(size)) return vec2(0.0);
+  if (!(size >= kBiasMinNormal) || !penumbra_is_finite(size)) return vec2(0.0);
   float det = ad - bc;
   // A determinant below FLT_MIN is outside the divide's accurate range (and flushed by some GPUs).
   if (!(abs(det) > kReceiverPlaneMinDet * size) || !(abs(det) >= kBiasMinNormal)) {
@@ -121,7 +107,7 @@ vec2 receiver_plane_depth_gradient(vec3 coord_ddx, vec3 coord_ddy) {
     det = ldexp(det, -64);
   }
   vec2 gradient = numerator / det;
-  if (!bias_is_finite(gradient.x) || !bias_is_finite(gradient.y)) return vec2(0.0);
+  if (!penumbra_is_finite(gradient.x) || !penumbra_is_finite(gradient.y)) return vec2(0.0);
   return gradient;
 }
 

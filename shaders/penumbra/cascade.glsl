@@ -25,6 +25,8 @@
 #ifndef PENUMBRA_CASCADE_GLSL
 #define PENUMBRA_CASCADE_GLSL
 
+#include "penumbra/finite.glsl"
+
 // The most cascades or clipmap levels of one light (kMaxCascades on the C++ side).
 const int kCascadeMaxCount = 8;
 
@@ -41,17 +43,6 @@ const float kCascadeLargeDivisor = 1.2676506e30;
 // What world_to_shadow_coord returns for a point with no valid shadow-map position.
 const vec3 kShadowCoordOutside = vec3(-1.0);
 
-// Returns true when x is NaN. Tested on the bits: drivers may assume comparisons never see a NaN
-// (no SignedZeroInfNanPreserve), but integer operations are never folded that way.
-bool cascade_is_nan(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) > 0x7f800000u;
-}
-
-// Returns true when x is neither NaN nor an infinity (tested on the bits, like cascade_is_nan).
-bool cascade_is_finite(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u;
-}
-
 // Returns the far split distance of cascade i (0 <= i < 8) from splits[2].
 float cascade_split(vec4 splits[2], int i) {
   return splits[i >> 2][i & 3];
@@ -62,7 +53,7 @@ float cascade_split(vec4 splits[2], int i) {
 // count is clamped to [0, 8].
 int select_cascade_by_depth(float view_depth, vec4 splits[2], int count) {
   int n = clamp(count, 0, kCascadeMaxCount);
-  if (cascade_is_nan(view_depth)) return n;
+  if (penumbra_is_nan(view_depth)) return n;
   for (int i = 0; i < n; ++i) {
     if (view_depth <= cascade_split(splits, i)) return i;
   }
@@ -73,7 +64,7 @@ int select_cascade_by_depth(float view_depth, vec4 splits[2], int count) {
 // clamped to [0, 4].
 int select_cascade_by_depth(float view_depth, vec4 splits, int count) {
   int n = clamp(count, 0, 4);
-  if (cascade_is_nan(view_depth)) return n;
+  if (penumbra_is_nan(view_depth)) return n;
   for (int i = 0; i < n; ++i) {
     if (view_depth <= splits[i]) return i;
   }
@@ -85,7 +76,7 @@ int select_cascade_by_depth(float view_depth, vec4 splits, int count) {
 // end/width is not finite (so no division by zero, and no smoothstep with equal edges). x must
 // not be NaN.
 float cascade_end_ramp(float x, float end, float width) {
-  if (!(width >= kCascadeMinNormal) || !cascade_is_finite(width) || !cascade_is_finite(end)) {
+  if (!(width >= kCascadeMinNormal) || !penumbra_is_finite(width) || !penumbra_is_finite(end)) {
     return x > end ? 1.0 : 0.0;
   }
   if (x >= end) return 1.0;
@@ -111,7 +102,7 @@ float cascade_end_ramp(float x, float end, float width) {
 // one apply smoothstep(0.0, 1.0, weight) (distinct edges, so always defined).
 float cascade_blend_weight(float view_depth, float cascade_near, float cascade_far,
                            float band_fraction) {
-  if (cascade_is_nan(view_depth)) return 0.0;
+  if (penumbra_is_nan(view_depth)) return 0.0;
   float fraction = band_fraction > 0.0 ? min(band_fraction, 1.0) : 0.0;
   return cascade_end_ramp(view_depth, cascade_far, fraction * (cascade_far - cascade_near));
 }
@@ -135,7 +126,7 @@ float cascade_blend_to_next(float view_depth, vec4 splits[2], int cascade, int c
 // only beyond max_distance, so a depth exactly at max_distance, which selection gives to the
 // last cascade, stays shadowed. A NaN depth gives 1. Faded visibility: mix(visibility, 1.0, fade).
 float shadow_distance_fade(float view_depth, float max_distance, float fade_fraction) {
-  if (cascade_is_nan(view_depth)) return 1.0;
+  if (penumbra_is_nan(view_depth)) return 1.0;
   float fraction = fade_fraction > 0.0 ? min(fade_fraction, 1.0) : 0.0;
   return cascade_end_ramp(view_depth, max_distance, fraction * max_distance);
 }
@@ -146,11 +137,11 @@ float shadow_distance_fade(float view_depth, float max_distance, float fade_frac
 // perspective light) or when any result would be NaN or infinite.
 vec3 world_to_shadow_coord(mat4 light_view_proj, vec3 position) {
   vec4 clip = light_view_proj * vec4(position, 1.0);
-  if (!(clip.w >= kCascadeMinNormal) || !cascade_is_finite(clip.w)) return kShadowCoordOutside;
+  if (!(clip.w >= kCascadeMinNormal) || !penumbra_is_finite(clip.w)) return kShadowCoordOutside;
   if (clip.w > kCascadeLargeDivisor) clip = ldexp(clip, ivec4(-64));
   vec3 ndc = clip.xyz / clip.w;
   vec3 coord = vec3(ndc.xy * 0.5 + 0.5, ndc.z);
-  if (!cascade_is_finite(coord.x) || !cascade_is_finite(coord.y) || !cascade_is_finite(coord.z)) {
+  if (!penumbra_is_finite(coord.x) || !penumbra_is_finite(coord.y) || !penumbra_is_finite(coord.z)) {
     return kShadowCoordOutside;
   }
   return coord;
@@ -161,7 +152,7 @@ vec3 world_to_shadow_coord(mat4 light_view_proj, vec3 position) {
 // (1 - uv) * resolution both >= border_texels; bounds inclusive) and depth in [0, 1]; false for
 // non-finite components. resolution > 0.
 bool shadow_coord_in_bounds(vec3 coord, float border_texels, float resolution) {
-  if (!cascade_is_finite(coord.x) || !cascade_is_finite(coord.y) || !cascade_is_finite(coord.z)) {
+  if (!penumbra_is_finite(coord.x) || !penumbra_is_finite(coord.y) || !penumbra_is_finite(coord.z)) {
     return false;
   }
   // Texels to the near and far edges; no division, so the test is exact for texel-aligned uvs.

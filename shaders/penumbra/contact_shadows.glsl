@@ -24,6 +24,8 @@
 #ifndef PENUMBRA_CONTACT_SHADOWS_GLSL
 #define PENUMBRA_CONTACT_SHADOWS_GLSL
 
+#include "penumbra/finite.glsl"
+
 #include "penumbra/common.glsl"
 #include "penumbra/depth.glsl"
 #include "penumbra/noise.glsl"
@@ -71,14 +73,10 @@ struct ContactShadowGpu {
   uint reserved;         // 0
 };
 
-// True when x is neither NaN nor an infinity (tested on the bits: drivers may assume that
-// comparisons never see a NaN).
-bool contact_is_finite(float x) { return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u; }
-
 // True when a depth-buffer value holds no surface: the far plane or beyond (reverse-Z: depth
 // <= 0; standard: depth >= 1), or NaN / infinite.
 bool contact_is_sky(float depth, bool reverse_z) {
-  if (!contact_is_finite(depth)) return true;
+  if (!penumbra_is_finite(depth)) return true;
   return reverse_z ? depth <= 0.0 : depth >= 1.0;
 }
 
@@ -90,7 +88,7 @@ float contact_surface_depth(float depth, float near_plane, float far_plane, bool
   if (contact_is_sky(depth, reverse_z)) return kContactNoSurface;
   float z = far_plane > 0.0 ? linearize_depth(depth, near_plane, far_plane, reverse_z)
                             : linearize_depth_infinite(depth, near_plane, reverse_z);
-  return (contact_is_finite(z) && z > 0.0) ? z : kContactNoSurface;
+  return (penumbra_is_finite(z) && z > 0.0) ? z : kContactNoSurface;
 }
 
 // uv of the centre of pixel `pixel` on a screen of `extent` pixels.
@@ -192,7 +190,7 @@ float contact_step_t(uint i, uint n, float noise, float exponent) {
 float contact_n_dot_l(vec3 normal, vec3 to_light) {
   vec3 a = abs(normal);
   float m = max(max(a.x, a.y), a.z);
-  if (!(m >= kContactMinNormal) || !contact_is_finite(m)) return kContactMinNdotL;
+  if (!(m >= kContactMinNormal) || !penumbra_is_finite(m)) return kContactMinNdotL;
   vec3 n = normal / m;
   return dot(n, to_light) * inversesqrt(dot(n, n));
 }
@@ -265,7 +263,7 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
   if (!(z0 > 0.0)) return 0u;
   vec3 l = p.light_dir.xyz;
   float ll = dot(l, l);
-  if (!(ll >= kContactMinNormal) || !contact_is_finite(ll)) return 0u;
+  if (!(ll >= kContactMinNormal) || !penumbra_is_finite(ll)) return 0u;
   l *= inversesqrt(ll);
   float n_dot_l = contact_n_dot_l(normal, l);
   if (!(n_dot_l > 0.0)) return 0u;
@@ -274,9 +272,9 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
   vec3 origin = contact_ray_origin(pixel, z0, p);
   vec3 end = contact_ray_end(origin, l, p.max_distance, p.near_plane);
   float z1 = -end.z;
-  if (!(z1 > 0.0) || !contact_is_finite(z1)) return 0u;
+  if (!(z1 > 0.0) || !penumbra_is_finite(z1)) return 0u;
   vec2 uv1 = contact_project_uv(end, p.tan_half_fov_y, p.aspect);
-  if (!contact_is_finite(uv1.x) || !contact_is_finite(uv1.y)) return 0u;
+  if (!penumbra_is_finite(uv1.x) || !penumbra_is_finite(uv1.y)) return 0u;
   // Both inverse depths stay >= FLT_MIN: 1 / z of a z beyond 1 / FLT_MIN (8.5e37) would be a
   // denormal that a GPU may flush to 0 (an end at infinity).
   float inv_z0 = max(1.0 / z0, kContactMinNormal);

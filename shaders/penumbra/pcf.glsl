@@ -23,6 +23,8 @@
 #ifndef PENUMBRA_PCF_GLSL
 #define PENUMBRA_PCF_GLSL
 
+#include "penumbra/finite.glsl"
+
 #include "penumbra/noise.glsl"
 
 // Largest grid radius: radius 5 filters an 11x11-texel box.
@@ -31,27 +33,17 @@ const int kPcfMaxRadius = 5;
 const int kPcfMaxPoissonTaps = 32;
 const int kPcfMaxVogelTaps = 64;
 
-// Returns true when x is neither NaN nor an infinity (tested on the bits).
-bool pcf_is_finite(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u;
-}
-
-// Returns true when x is NaN (tested on the bits).
-bool pcf_is_nan(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) > 0x7f800000u;
-}
-
 // Returns true when coord (uv, depth) is finite and its uv lies inside [0, 1]^2; the filters
 // treat every other coord as lit.
 bool pcf_coord_in_map(vec3 coord) {
-  bool finite = pcf_is_finite(coord.x) && pcf_is_finite(coord.y) && pcf_is_finite(coord.z);
+  bool finite = penumbra_is_finite(coord.x) && penumbra_is_finite(coord.y) && penumbra_is_finite(coord.z);
   return finite && coord.x >= 0.0 && coord.x <= 1.0 && coord.y >= 0.0 && coord.y <= 1.0;
 }
 
 // Returns v clamped to [0, 1], or 1 (lit) when v is NaN or infinite: the last step of every
 // filter, so that no input (a zero texel size, say) can turn into a NaN shadow factor.
 float pcf_saturate_or_lit(float v) {
-  return pcf_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;
+  return penumbra_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;
 }
 
 // Returns the grid radius clamped to [0, kPcfMaxRadius].
@@ -124,12 +116,12 @@ float pcf_grid_array(sampler2DArrayShadow map, vec3 coord, int layer, int radius
 
 // Returns radius_texels made safe for tap offsets: negative or non-finite radii count as 0.
 float pcf_safe_radius(float radius_texels) {
-  return pcf_is_finite(radius_texels) ? max(radius_texels, 0.0) : 0.0;
+  return penumbra_is_finite(radius_texels) ? max(radius_texels, 0.0) : 0.0;
 }
 
 // Returns (cos, sin) of a rotation angle; a non-finite angle counts as 0.
 vec2 pcf_rotation_cos_sin(float rotation) {
-  return rotate2(vec2(1.0, 0.0), pcf_is_finite(rotation) ? rotation : 0.0);
+  return rotate2(vec2(1.0, 0.0), penumbra_is_finite(rotation) ? rotation : 0.0);
 }
 
 // Returns the uv offset of Poisson tap `index`: kPoissonDisk32[index] rotated by the angle whose
@@ -184,7 +176,7 @@ float pcf_vogel(sampler2DShadow map, vec3 coord, int tap_count, float radius_tex
   int n = clamp(tap_count, 1, kPcfMaxVogelTaps);
   float depth = clamp(coord.z, 0.0, 1.0);
   float radius = pcf_safe_radius(radius_texels);
-  float angle = pcf_is_finite(rotation) ? rotation : 0.0;
+  float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = coord.xy + vogel_disk_sample(i, n, angle) * radius * texel_size;
@@ -200,7 +192,7 @@ float pcf_vogel_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_c
   int n = clamp(tap_count, 1, kPcfMaxVogelTaps);
   float depth = clamp(coord.z, 0.0, 1.0);
   float radius = pcf_safe_radius(radius_texels);
-  float angle = pcf_is_finite(rotation) ? rotation : 0.0;
+  float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = coord.xy + vogel_disk_sample(i, n, angle) * radius * texel_size;

@@ -89,8 +89,8 @@ float pcss_search_radius_texels(float receiver_depth, PcssParams params, bool re
   float to_near = reverse_z ? 1.0 - depth : depth;
   float radius =
       to_near * pcss_depth_range(params) * params.tan_half_angle / params.texel_world_size;
-  float hi = pcf_is_nan(params.max_search_texels) ? 0.0 : max(params.max_search_texels, 0.0);
-  return pcf_is_finite(radius) ? clamp(radius, 0.0, hi) : 0.0;
+  float hi = penumbra_is_nan(params.max_search_texels) ? 0.0 : max(params.max_search_texels, 0.0);
+  return penumbra_is_finite(radius) ? clamp(radius, 0.0, hi) : 0.0;
 }
 
 // Returns the world distance along the light from the receiver up to the blocker (0 when the
@@ -120,16 +120,16 @@ float pcss_penumbra_width_texels(float receiver_depth, float blocker_depth, Pcss
 float pcss_filter_radius_texels(float receiver_depth, float blocker_depth, PcssParams params,
                                 bool reverse_z) {
   float radius = 0.5 * pcss_penumbra_width_texels(receiver_depth, blocker_depth, params, reverse_z);
-  float lo = pcf_is_nan(params.min_filter_texels) ? 0.0 : max(params.min_filter_texels, 0.0);
-  float hi = pcf_is_nan(params.max_filter_texels) ? lo : max(params.max_filter_texels, lo);
-  return pcf_is_finite(radius) ? clamp(radius, lo, hi) : lo;
+  float lo = penumbra_is_nan(params.min_filter_texels) ? 0.0 : max(params.min_filter_texels, 0.0);
+  float hi = penumbra_is_nan(params.max_filter_texels) ? lo : max(params.max_filter_texels, lo);
+  return penumbra_is_finite(radius) ? clamp(radius, lo, hi) : lo;
 }
 
 // Returns the confidence in [0, 1] of a blocker search that found blocker_count blockers among
 // search_taps samples (see the header: full from confidence_fraction * search_taps blockers on;
 // the fraction is clamped to [0, 1], NaN counts as 0).
 float pcss_confidence(int blocker_count, int search_taps, float confidence_fraction) {
-  float fraction = pcf_is_nan(confidence_fraction) ? 0.0 : clamp(confidence_fraction, 0.0, 1.0);
+  float fraction = penumbra_is_nan(confidence_fraction) ? 0.0 : clamp(confidence_fraction, 0.0, 1.0);
   float needed = max(fraction * float(search_taps), 1.0);
   return clamp(float(blocker_count) / needed, 0.0, 1.0);
 }
@@ -164,12 +164,12 @@ void pcss_blocker_search(sampler2D depth_map, vec3 coord, float radius_texels, i
                          float rotation, vec2 texel_size, bool reverse_z, out float average_depth,
                          out int blocker_count) {
   float depth = clamp(coord.z, 0.0, 1.0);
-  average_depth = pcf_is_finite(depth) ? depth : 0.0;
+  average_depth = penumbra_is_finite(depth) ? depth : 0.0;
   blocker_count = 0;
   if (!pcf_coord_in_map(coord)) return;
   int n = clamp(tap_count, 1, kPcssMaxSearchTaps);
   float radius = pcf_safe_radius(radius_texels);
-  float angle = pcf_is_finite(rotation) ? rotation : 0.0;
+  float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     float stored =
@@ -187,12 +187,12 @@ void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, 
                                int tap_count, float rotation, vec2 texel_size, bool reverse_z,
                                out float average_depth, out int blocker_count) {
   float depth = clamp(coord.z, 0.0, 1.0);
-  average_depth = pcf_is_finite(depth) ? depth : 0.0;
+  average_depth = penumbra_is_finite(depth) ? depth : 0.0;
   blocker_count = 0;
   if (!pcf_coord_in_map(coord)) return;
   int n = clamp(tap_count, 1, kPcssMaxSearchTaps);
   float radius = pcf_safe_radius(radius_texels);
-  float angle = pcf_is_finite(rotation) ? rotation : 0.0;
+  float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = pcss_search_uv(coord.xy, i, n, radius, angle, texel_size);

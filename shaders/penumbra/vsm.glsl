@@ -25,28 +25,20 @@
 #ifndef PENUMBRA_VSM_GLSL
 #define PENUMBRA_VSM_GLSL
 
+#include "penumbra/finite.glsl"
+
 // Exponent limits of the EVSM warps (see the header).
 const float kEvsmMaxExponentFp32 = 42.0;
 const float kEvsmMaxExponentFp16 = 5.54;
 
-// Returns true when x is neither NaN nor an infinity (tested on the bits).
-bool vsm_is_finite(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) < 0x7f800000u;
-}
-
-// Returns true when x is NaN (tested on the bits).
-bool vsm_is_nan(float x) {
-  return (floatBitsToUint(x) & 0x7fffffffu) > 0x7f800000u;
-}
-
 // Returns v clamped to [0, 1], or 1 (lit) when v is NaN or infinite.
 float vsm_saturate_or_lit(float v) {
-  return vsm_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;
+  return penumbra_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;
 }
 
 // Returns min_variance made safe: negative or NaN values count as 0.
 float vsm_min_variance(float min_variance) {
-  return vsm_is_nan(min_variance) ? 0.0 : max(min_variance, 0.0);
+  return penumbra_is_nan(min_variance) ? 0.0 : max(min_variance, 0.0);
 }
 
 // Returns the moments to store for a depth: (depth, depth^2), depth clamped to [0, 1].
@@ -64,11 +56,11 @@ vec2 vsm_moments(float depth) {
 // `precise` (no fused multiply-add), so moments (m, m * m) of one depth have variance exactly 0
 // on every device. Non-finite inputs give 1.
 float chebyshev_bound_min_sigma(vec2 moments, float t, float min_sigma) {
-  if (!(vsm_is_finite(moments.x) && vsm_is_finite(moments.y) && vsm_is_finite(t))) return 1.0;
+  if (!(penumbra_is_finite(moments.x) && penumbra_is_finite(moments.y) && penumbra_is_finite(t))) return 1.0;
   float d = t - moments.x;
   if (d <= 0.0) return 1.0;
   precise float variance = moments.y - moments.x * moments.x;
-  float sigma = max(sqrt(max(variance, 0.0)), vsm_is_nan(min_sigma) ? 0.0 : min_sigma);
+  float sigma = max(sqrt(max(variance, 0.0)), penumbra_is_nan(min_sigma) ? 0.0 : min_sigma);
   if (!(sigma > 0.0)) return 0.0;
   float r = d / sigma;
   return vsm_saturate_or_lit(1.0 / (1.0 + r * r));
@@ -86,7 +78,7 @@ float chebyshev_upper_bound(vec2 moments, float t, float min_variance) {
 // reduction, cutting the Chebyshev bound's tail below `amount` (clamped to [0, 1]; amount 1
 // keeps only p = 1). amount 0 returns p unchanged.
 float vsm_reduce_light_bleeding(float p, float amount) {
-  float a = vsm_is_finite(amount) ? clamp(amount, 0.0, 1.0) : 0.0;
+  float a = penumbra_is_finite(amount) ? clamp(amount, 0.0, 1.0) : 0.0;
   if (a >= 1.0) return p >= 1.0 ? 1.0 : 0.0;
   return clamp((p - a) / (1.0 - a), 0.0, 1.0);
 }
@@ -96,7 +88,7 @@ float vsm_reduce_light_bleeding(float p, float amount) {
 // reduction by bleed_reduction.
 float vsm_shadow(vec2 moments, float receiver_depth, float min_variance, float bleed_reduction,
                  bool reverse_z) {
-  if (!vsm_is_finite(receiver_depth)) return 1.0;
+  if (!penumbra_is_finite(receiver_depth)) return 1.0;
   float t = clamp(receiver_depth, 0.0, 1.0);
   // Reverse-Z: the distribution of -d has mean -E[d] and the same variance.
   float p = reverse_z ? chebyshev_upper_bound(vec2(-moments.x, moments.y), -t, min_variance)
@@ -112,8 +104,8 @@ float evsm_max_exponent(bool fp16) {
 // Returns (positive, negative) exponents clamped to [0, evsm_max_exponent(fp16)]; NaN gives 0.
 vec2 evsm_clamp_exponents(vec2 exponents, bool fp16) {
   float hi = evsm_max_exponent(fp16);
-  return vec2(vsm_is_nan(exponents.x) ? 0.0 : clamp(exponents.x, 0.0, hi),
-              vsm_is_nan(exponents.y) ? 0.0 : clamp(exponents.y, 0.0, hi));
+  return vec2(penumbra_is_nan(exponents.x) ? 0.0 : clamp(exponents.x, 0.0, hi),
+              penumbra_is_nan(exponents.y) ? 0.0 : clamp(exponents.y, 0.0, hi));
 }
 
 // Returns the warped depth (exp(c+ x), -exp(-c- x)), x = 2 f - 1 in [-1, 1], f the distance
@@ -144,7 +136,7 @@ float evsm_warped_min_sigma(float min_variance, float exponent, float w) {
 // moments (E[w+], E[w+^2])) at the receiver's warped depth, then light-bleed reduction.
 float evsm2_shadow(vec2 moments, float receiver_depth, float exponent, float min_variance,
                    float bleed_reduction, bool reverse_z) {
-  if (!vsm_is_finite(receiver_depth)) return 1.0;
+  if (!penumbra_is_finite(receiver_depth)) return 1.0;
   float c = evsm_clamp_exponents(vec2(exponent, 0.0), false).x;
   float w = evsm_warp(receiver_depth, vec2(c, 0.0), reverse_z).x;
   float p = chebyshev_bound_min_sigma(moments, w, evsm_warped_min_sigma(min_variance, c, w));
@@ -155,9 +147,9 @@ float evsm2_shadow(vec2 moments, float receiver_depth, float exponent, float min
 // (moments.xy) and the negative warp (moments.zw), then light-bleed reduction.
 float evsm4_shadow(vec4 moments, float receiver_depth, vec2 exponents, float min_variance,
                    float bleed_reduction, bool reverse_z) {
-  bool finite = vsm_is_finite(moments.x) && vsm_is_finite(moments.y) && vsm_is_finite(moments.z) &&
-                vsm_is_finite(moments.w);
-  if (!finite || !vsm_is_finite(receiver_depth)) return 1.0;
+  bool finite = penumbra_is_finite(moments.x) && penumbra_is_finite(moments.y) && penumbra_is_finite(moments.z) &&
+                penumbra_is_finite(moments.w);
+  if (!finite || !penumbra_is_finite(receiver_depth)) return 1.0;
   vec2 c = evsm_clamp_exponents(exponents, false);
   vec2 w = evsm_warp(receiver_depth, c, reverse_z);
   float positive =
@@ -169,7 +161,7 @@ float evsm4_shadow(vec4 moments, float receiver_depth, vec2 exponents, float min
 
 // Returns true when coord (uv, depth) is finite with uv inside [0, 1]^2.
 bool vsm_coord_in_map(vec3 coord) {
-  bool finite = vsm_is_finite(coord.x) && vsm_is_finite(coord.y) && vsm_is_finite(coord.z);
+  bool finite = penumbra_is_finite(coord.x) && penumbra_is_finite(coord.y) && penumbra_is_finite(coord.z);
   return finite && coord.x >= 0.0 && coord.x <= 1.0 && coord.y >= 0.0 && coord.y <= 1.0;
 }
 

@@ -91,9 +91,9 @@ const std::string kExposure = "vec3 color = texelFetch(hdr, pixel, 0).rgb * fram
 const std::string kHalfExposure =
     "vec3 color = texelFetch(hdr, pixel, 0).rgb * frame.ambient.w * 0.5;";
 // The last step of every PCF filter; "* 0.5 + 0.5" makes every shadow half as dark.
-const std::string kSaturate = "return pcf_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;";
+const std::string kSaturate = "return penumbra_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;";
 const std::string kLighterShadows =
-    "return pcf_is_finite(v) ? clamp(v * 0.5 + 0.5, 0.0, 1.0) : 1.0;";
+    "return penumbra_is_finite(v) ? clamp(v * 0.5 + 0.5, 0.0, 1.0) : 1.0;";
 const std::string kClampRadius = "  return clamp(radius, 0, kPcfMaxRadius);";
 
 TEST_F(ReloadTest, AValidEditChangesTheImage) {
