@@ -1,5 +1,6 @@
 // The scene parameter table (include/penumbra/scene/params.hpp): the rows, and parsing and
-// formatting values as scripts and the panel write them.
+// formatting values as scripts and the panel write them. Over 600 lines because the table is
+// here, one row (key, type, range, accessor, rebuild flag, docs line) per scene key.
 
 #include <algorithm>
 #include <cmath>

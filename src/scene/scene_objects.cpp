@@ -1,0 +1,424 @@
+// The geometry of a scene file: materials, meshes (shapes, model files, glmark2 models),
+// [[object]] instances and [[scatter]] fields. docs/scenes.md is the format's reference.
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <map>
+
+#include "toml_reader.hpp"
+
+#ifndef PENUMBRA_MODEL_DIR
+#define PENUMBRA_MODEL_DIR "/usr/share/glmark2/models"
+#endif
+
+namespace penumbra::scene::file {
+namespace {
+
+fs::path resolve(const Context& ctx, const std::string& path) {
+  fs::path p(path);
+  if (p.is_relative()) p = ctx.base_dir / p;
+  std::error_code ec;
+  fs::path absolute = fs::absolute(p, ec);
+  return (ec ? p : absolute).lexically_normal();
+}
+
+Material read_material(const Reader& r) {
+  r.check_keys({"name", "albedo", "alpha", "mask", "mask_texture", "mask_scale", "alpha_cutoff"});
+  Material m;
+  m.name = r.required_string("name");
+  m.albedo = r.vec3("albedo", m.albedo, kUnit);
+  const std::optional<AlphaMode> alpha = r.opt_enum("alpha", kAlphaModes);
+  std::optional<MaskPattern> mask = r.opt_enum("mask", kMasks);
+  if (r.has("mask_texture")) {
+    if (mask && *mask != MaskPattern::texture) {
+      r.fail_key("mask_texture", "only applies with mask = 'texture' (this material has mask = '" +
+                                     std::string(name_of(kMasks, *mask)) + "')");
+    }
+    mask = MaskPattern::texture;
+    const std::string given = *r.opt_string("mask_texture");
+    m.mask_texture = resolve(r.context(), given);
+    std::error_code ec;
+    if (!fs::is_regular_file(m.mask_texture, ec)) {
+      r.fail_key("mask_texture", "texture file '" + given + "' not found (resolved to " +
+                                     m.mask_texture.string() + ")");
+    }
+  } else if (mask == MaskPattern::texture) {
+    r.fail_key("mask", "mask = 'texture' needs a mask_texture file");
+  }
+  m.mask = mask.value_or(MaskPattern::none);
+  m.alpha = alpha.value_or(m.mask == MaskPattern::none ? AlphaMode::opaque : AlphaMode::masked);
+  if (m.alpha == AlphaMode::masked && m.mask == MaskPattern::none) {
+    r.fail_key("alpha",
+               "alpha = 'masked' needs a mask (mask = 'stripes', 'checker', 'circles' or "
+               "'texture')");
+  }
+  if (m.alpha == AlphaMode::opaque && m.mask != MaskPattern::none) {
+    r.fail_key(r.has("mask") ? "mask" : "mask_texture",
+               "a mask has no effect on an opaque material (set alpha = 'masked' or leave alpha "
+               "out)");
+  }
+  if (const auto scale = r.opt_vec<2>("mask_scale", kPositive)) m.mask_scale = glm::vec2(*scale);
+  m.alpha_cutoff = r.numberf("alpha_cutoff", m.alpha_cutoff, open(0.0, 1.0));
+  return m;
+}
+
+// ---- meshes and instances --------------------------------------------------------------------
+
+const std::vector<std::string_view> kShapes{"plane", "box", "sphere", "post", "chair", "table"};
+const std::vector<std::string_view> kShapeKeys{"size",     "subdivisions", "radius",
+                                               "segments", "rings",        "height"};
+
+std::vector<std::string_view> shape_keys(std::string_view kind, bool scatter) {
+  if (kind == "plane") return {"size", "subdivisions"};
+  if (kind == "box" || kind == "table") return {"size"};
+  if (kind == "sphere") return {"radius", "segments", "rings"};
+  if (kind == "post") return {"radius", "height", "segments"};
+  if (kind == "chair") return {};
+  // model: and file:
+  if (scatter) return {"size"};
+  return {"size", "height"};
+}
+
+std::vector<std::string> model_names(const fs::path& dir) {
+  std::vector<std::string> names;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(dir, ec)) {
+    const std::string ext = entry.path().extension().string();
+    if (ext == ".obj" || ext == ".3ds") names.push_back(entry.path().stem().string());
+  }
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+fs::path model_dir() {
+  if (const char* env = std::getenv("PENUMBRA_MODEL_DIR"); env != nullptr && *env != '\0') {
+    return env;
+  }
+  return PENUMBRA_MODEL_DIR;
+}
+
+std::string hex_float(float v) {
+  char buffer[40];
+  std::snprintf(buffer, sizeof(buffer), "%a", static_cast<double>(v));
+  return buffer;
+}
+
+struct MeshUse {
+  std::uint32_t mesh = 0;
+  glm::mat4 normalize{1.0f};  // applied before the object's own transform
+};
+
+class Builder {
+ public:
+  Builder(const Context& ctx, Scene& scene) : ctx_(ctx), scene_(scene) {}
+
+  void add_material(const Reader& r, Material material) {
+    const std::uint32_t line = r.line_of(r.get("name"));
+    if (const auto it = material_lines_.find(material.name); it != material_lines_.end()) {
+      r.fail_key("name", "material '" + material.name + "' is already defined at line " +
+                             std::to_string(it->second));
+    }
+    material_lines_[material.name] = line;
+    scene_.materials.push_back(std::move(material));
+  }
+
+  std::uint32_t material(const Reader& r) {
+    const std::string name = r.opt_string("material").value_or("default");
+    for (std::size_t i = 0; i < scene_.materials.size(); ++i) {
+      if (scene_.materials[i].name == name) return static_cast<std::uint32_t>(i);
+    }
+    if (name == "default") {  // the implicit default material
+      scene_.materials.push_back(Material{.name = "default"});
+      return static_cast<std::uint32_t>(scene_.materials.size() - 1);
+    }
+    std::vector<std::string_view> names;
+    for (const Material& m : scene_.materials) names.push_back(m.name);
+    r.fail_key("material",
+               "unknown material '" + name + "'" + did_you_mean(name, names) +
+                   (names.empty() ? "; no [[material]] is defined" : "; defined: " + join(names)));
+  }
+
+  // Reads `mesh` and its shape keys, checks the table's keys, and returns the (shared) mesh.
+  MeshUse mesh(const Reader& r, const std::vector<std::string_view>& common, bool scatter) {
+    const std::string spec = r.required_string("mesh");
+    std::string kind = spec;
+    if (spec.starts_with("model:")) kind = "model:";
+    if (spec.starts_with("file:")) kind = "file:";
+    const bool is_file = kind == "model:" || kind == "file:";
+    if (!is_file && std::find(kShapes.begin(), kShapes.end(), kind) == kShapes.end()) {
+      std::vector<std::string_view> valid = kShapes;
+      r.fail_key("mesh", "unknown mesh '" + spec + "'; valid: " + join(valid) +
+                             ", model:<name>, file:<path>" + did_you_mean(spec, valid));
+    }
+    std::vector<std::string_view> allowed = common;
+    const std::vector<std::string_view> own = shape_keys(kind, scatter);
+    allowed.insert(allowed.end(), own.begin(), own.end());
+    r.check_keys(allowed, [&](std::string_view key) -> std::string {
+      if (std::find(kShapeKeys.begin(), kShapeKeys.end(), key) == kShapeKeys.end()) return "";
+      const std::string what = is_file ? "a mesh file" : "mesh '" + kind + "'";
+      return "key '" + std::string(key) + "' does not apply to " + what + " in " + r.label() +
+             " (" + what + " takes: " + (own.empty() ? "no shape keys" : join(own)) + ")";
+    });
+
+    MeshUse use;
+    if (kind == "plane") {
+      const auto size = r.opt_vec<2>("size", kPositive).value_or(glm::dvec2(10.0));
+      const std::uint32_t sub = r.uint("subdivisions", 1, 1, 1024);
+      const auto sx = static_cast<float>(size.x);
+      const auto sz = static_cast<float>(size.y);
+      use.mesh = shared("plane " + hex_float(sx) + " " + hex_float(sz) + " " + std::to_string(sub),
+                        [&] { return make_plane(sx, sz, sub); });
+    } else if (kind == "box" || kind == "table") {
+      const glm::vec3 fallback = kind == "box" ? glm::vec3(1.0f) : glm::vec3(1.4f, 0.75f, 0.8f);
+      const glm::vec3 size =
+          r.vec3("size", fallback, kind == "box" ? kPositive : Range{0.1, kInf, true, false});
+      const std::string key =
+          kind + " " + hex_float(size.x) + " " + hex_float(size.y) + " " + hex_float(size.z);
+      use.mesh = shared(key, [&] { return kind == "box" ? make_box(size) : make_table(size); });
+    } else if (kind == "sphere") {
+      const float radius = r.numberf("radius", 0.5f, kPositive);
+      const std::uint32_t segments = r.uint("segments", 32, 3, 1024);
+      const std::uint32_t rings = r.uint("rings", 16, 2, 1024);
+      use.mesh = shared("sphere " + hex_float(radius) + " " + std::to_string(segments) + " " +
+                            std::to_string(rings),
+                        [&] { return make_sphere(radius, segments, rings); });
+    } else if (kind == "post") {
+      const float radius = r.numberf("radius", 0.05f, kPositive);
+      const float height = r.numberf("height", 2.0f, kPositive);
+      const std::uint32_t segments = r.uint("segments", 12, 3, 1024);
+      use.mesh = shared(
+          "post " + hex_float(radius) + " " + hex_float(height) + " " + std::to_string(segments),
+          [&] { return make_post(radius, height, segments); });
+    } else if (kind == "chair") {
+      use.mesh = shared("chair", [] { return make_chair(); });
+    } else {
+      const fs::path file = mesh_file(r, spec, kind);
+      use.mesh = shared("file " + file.string(), [&] {
+        try {
+          return load_mesh(file);
+        } catch (const Error& e) {
+          r.fail_key("mesh", e.what());
+        }
+      });
+      const Bounds b = scene_.meshes[use.mesh].bounds;
+      const glm::vec3 extent = b.size();
+      if (r.has("size") && r.has("height")) {
+        r.fail_key("height", "give either 'size' or 'height', not both");
+      }
+      if (const auto size = r.opt_number("size", kPositive)) {
+        const float largest = std::max({extent.x, extent.y, extent.z});
+        if (!(largest > 0.0f)) r.fail_key("size", "the mesh has no extent to scale");
+        use.normalize =
+            glm::scale(glm::mat4(1.0f), glm::vec3(static_cast<float>(*size) / largest)) *
+            glm::translate(glm::mat4(1.0f), -b.center());
+      } else if (const auto height = r.opt_number("height", kPositive)) {
+        if (!(extent.y > 0.0f)) r.fail_key("height", "the mesh is flat in y");
+        use.normalize =
+            glm::scale(glm::mat4(1.0f), glm::vec3(static_cast<float>(*height) / extent.y)) *
+            glm::translate(glm::mat4(1.0f), -glm::vec3(b.center().x, b.min.y, b.center().z));
+      } else if (scatter) {
+        use.normalize = glm::translate(glm::mat4(1.0f), -b.center());
+      }
+    }
+    return use;
+  }
+
+  const Mesh& mesh_at(std::uint32_t index) const { return scene_.meshes[index]; }
+
+ private:
+  fs::path mesh_file(const Reader& r, const std::string& spec, const std::string& kind) const {
+    if (kind == "file:") {
+      const std::string given = spec.substr(5);
+      if (given.empty()) r.fail_key("mesh", "'file:' needs a path, e.g. file:meshes/rock.obj");
+      const fs::path file = resolve(ctx_, given);
+      std::error_code ec;
+      if (!fs::exists(file, ec)) {
+        r.fail_at(r.get("mesh"), r.name("mesh") + ": mesh file '" + given +
+                                     "' not found (resolved to " + file.string() + ")");
+      }
+      return file;
+    }
+    const std::string model = spec.substr(6);
+    const fs::path dir = model_dir();
+    std::error_code ec;
+    if (!model.empty() && model.find('/') == std::string::npos) {
+      if (fs::path(model).has_extension() && fs::exists(dir / model, ec)) return dir / model;
+      for (const char* ext : {".obj", ".3ds"}) {
+        if (fs::exists(dir / (model + ext), ec)) return dir / (model + ext);
+      }
+    }
+    const std::vector<std::string> names = model_names(dir);
+    std::vector<std::string_view> views(names.begin(), names.end());
+    r.fail_key("mesh", "model '" + model + "' not found in " + dir.string() +
+                           (names.empty() ? " (is glmark2-data installed?)"
+                                          : "; available: " + join(views)) +
+                           did_you_mean(model, views));
+  }
+
+  template <class Make>
+  std::uint32_t shared(const std::string& key, Make make) {
+    if (const auto it = mesh_ids_.find(key); it != mesh_ids_.end()) return it->second;
+    scene_.meshes.push_back(make());
+    const auto id = static_cast<std::uint32_t>(scene_.meshes.size() - 1);
+    mesh_ids_[key] = id;
+    return id;
+  }
+
+  const Context& ctx_;
+  Scene& scene_;
+  std::map<std::string, std::uint32_t> mesh_ids_;
+  std::map<std::string, std::uint32_t> material_lines_;
+};
+
+glm::mat4 rotation_xyz(glm::vec3 degrees) {
+  // Applied about x, then y, then z (world axes).
+  glm::mat4 m(1.0f);
+  m = glm::rotate(m, glm::radians(degrees.z), glm::vec3(0, 0, 1));
+  m = glm::rotate(m, glm::radians(degrees.y), glm::vec3(0, 1, 0));
+  m = glm::rotate(m, glm::radians(degrees.x), glm::vec3(1, 0, 0));
+  return m;
+}
+
+void read_object(const Reader& r, Builder& builder, Scene& scene) {
+  const MeshUse use = builder.mesh(
+      r, {"mesh", "material", "position", "rotation", "scale", "casts_shadows"}, false);
+  Instance instance;
+  instance.mesh = use.mesh;
+  instance.material = builder.material(r);
+  glm::vec3 scale(1.0f);
+  if (const toml::node* node = r.get("scale"); node != nullptr && node->is_array()) {
+    scale = glm::vec3(*r.opt_vec<3>("scale", kPositive));
+  } else {
+    scale = glm::vec3(r.numberf("scale", 1.0f, kPositive));
+  }
+  const glm::vec3 position = r.vec3("position", glm::vec3(0.0f));
+  const glm::vec3 rotation = r.vec3("rotation", glm::vec3(0.0f));
+  instance.transform = glm::translate(glm::mat4(1.0f), position) * rotation_xyz(rotation) *
+                       glm::scale(glm::mat4(1.0f), scale) * use.normalize;
+  instance.casts_shadows = r.boolean("casts_shadows", true);
+  scene.instances.push_back(instance);
+}
+
+// A deterministic generator (splitmix64), identical on every platform.
+class Random {
+ public:
+  explicit Random(std::uint64_t seed) : state_(seed) {}
+  std::uint64_t next() {
+    std::uint64_t z = (state_ += 0x9e3779b97f4a7c15ull);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ull;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebull;
+    return z ^ (z >> 31);
+  }
+  // Uniform in [0, 1).
+  double uniform() { return static_cast<double>(next() >> 11) * 0x1.0p-53; }
+
+ private:
+  std::uint64_t state_;
+};
+
+void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
+  const MeshUse use = builder.mesh(r,
+                                   {"mesh", "material", "count", "seed", "center", "radius",
+                                    "inner_radius", "flatten", "scale", "casts_shadows"},
+                                   true);
+  const std::uint32_t material = builder.material(r);
+  if (!r.has("count")) r.missing("count");
+  if (!r.has("radius")) r.missing("radius");
+  const auto count = static_cast<std::uint32_t>(*r.opt_integer("count", 1, 100000));
+  const auto seed = static_cast<std::uint64_t>(
+      r.opt_integer("seed", 0, std::numeric_limits<std::int64_t>::max()).value_or(1));
+  const glm::dvec3 center = r.opt_vec<3>("center").value_or(glm::dvec3(0.0));
+  const double radius = *r.opt_number("radius", kPositive);
+  const double inner = r.number("inner_radius", 0.0, kNonNegative);
+  if (!(inner < radius)) {
+    r.fail_at(r.get("inner_radius"), r.name("inner_radius") + " = " + format_number(inner) +
+                                         " must be less than radius = " + format_number(radius));
+  }
+  const double flatten = r.number("flatten", 1.0, Range{0.0, 1.0, true, false});
+  glm::dvec2 scale_range(1.0);
+  if (const toml::node* node = r.get("scale"); node != nullptr && node->is_array()) {
+    scale_range = *r.opt_vec<2>("scale", kPositive);
+    if (scale_range.x > scale_range.y) {
+      r.fail_at(node,
+                r.name("scale") + " = " + describe(*node) + " must be [min, max] with min <= max");
+    }
+  } else {
+    scale_range = glm::dvec2(r.number("scale", 1.0, kPositive));
+  }
+  const bool casts = r.boolean("casts_shadows", true);
+
+  const Bounds local = transform_bounds(builder.mesh_at(use.mesh).bounds, use.normalize);
+  const double unit_radius = 0.5 * glm::length(glm::dvec3(local.size()));
+  Random random(seed);
+  struct Placed {
+    glm::dvec3 position;
+    double radius;
+  };
+  // Avoid earlier instances too, except those whose bounding sphere holds the centre (a ground
+  // plane, the room around the field).
+  std::vector<Placed> placed;
+  for (const Instance& other : scene.instances) {
+    const Bounds b = transform_bounds(scene.meshes[other.mesh].bounds, other.transform);
+    const Placed sphere{glm::dvec3(b.center()), 0.5 * glm::length(glm::dvec3(b.size()))};
+    if (glm::length(sphere.position - center) > sphere.radius) placed.push_back(sphere);
+  }
+  const bool avoid_overlap = count + placed.size() <= 4000;
+  for (std::uint32_t i = 0; i < count; ++i) {
+    const double scale = scale_range.x + (scale_range.y - scale_range.x) * random.uniform();
+    const double bounding = unit_radius * scale;
+    glm::dvec3 position = center;
+    for (int attempt = 0; attempt < 64; ++attempt) {
+      const double z = 2.0 * random.uniform() - 1.0;
+      const double phi = 2.0 * glm::pi<double>() * random.uniform();
+      const double s = std::sqrt(std::max(0.0, 1.0 - z * z));
+      const double r3 = inner * inner * inner +
+                        (radius * radius * radius - inner * inner * inner) * random.uniform();
+      glm::dvec3 offset = std::cbrt(r3) * glm::dvec3(s * std::cos(phi), z, s * std::sin(phi));
+      offset.y *= flatten;
+      position = center + offset;
+      bool ok = glm::length(offset) >= inner;
+      if (ok && avoid_overlap) {
+        for (const Placed& p : placed) {
+          if (glm::length(p.position - position) < p.radius + bounding) {
+            ok = false;
+            break;
+          }
+        }
+      }
+      if (ok) break;
+    }
+    placed.push_back({position, bounding});
+    // A uniformly random rotation (Shoemake).
+    const double u1 = random.uniform();
+    const double u2 = 2.0 * glm::pi<double>() * random.uniform();
+    const double u3 = 2.0 * glm::pi<double>() * random.uniform();
+    const glm::dquat q(std::sqrt(u1) * std::cos(u3), std::sqrt(1.0 - u1) * std::sin(u2),
+                       std::sqrt(1.0 - u1) * std::cos(u2), std::sqrt(u1) * std::sin(u3));
+    const glm::dmat4 transform = glm::translate(glm::dmat4(1.0), position) *
+                                 glm::mat4_cast(glm::normalize(q)) *
+                                 glm::scale(glm::dmat4(1.0), glm::dvec3(scale));
+    scene.instances.push_back(
+        Instance{use.mesh, material, glm::mat4(transform) * use.normalize, casts});
+  }
+}
+
+}  // namespace
+
+void read_geometry(const Context& ctx, const toml::table& root, Scene& scene) {
+  Builder builder(ctx, scene);
+  const auto materials = table_array(ctx, root, "material");
+  for (std::size_t i = 0; i < materials.size(); ++i) {
+    const Reader r(ctx, *materials[i], indexed_label("material", i));
+    builder.add_material(r, read_material(r));
+  }
+  const auto objects = table_array(ctx, root, "object");
+  for (std::size_t i = 0; i < objects.size(); ++i) {
+    read_object(Reader(ctx, *objects[i], indexed_label("object", i)), builder, scene);
+  }
+  const auto scatters = table_array(ctx, root, "scatter");
+  for (std::size_t i = 0; i < scatters.size(); ++i) {
+    read_scatter(Reader(ctx, *scatters[i], indexed_label("scatter", i)), builder, scene);
+  }
+}
+
+}  // namespace penumbra::scene::file
