@@ -15,16 +15,10 @@
 namespace penumbra::scene {
 namespace {
 
-constexpr double kInf = std::numeric_limits<double>::infinity();
-constexpr ParamRange kAny{};
-constexpr ParamRange kPositive{0.0, kInf, true, false};
-constexpr ParamRange kNonNegative{0.0, kInf, false, false};
-constexpr ParamRange kUnit{0.0, 1.0, false, false};
-constexpr ParamRange closed(double lo, double hi) {
-  return ParamRange{lo, hi, false, false};
-}
+using namespace ranges;
+// The panel's slider range of a row.
 constexpr ParamRange slider(double lo, double hi) {
-  return ParamRange{lo, hi, false, false};
+  return closed(lo, hi);
 }
 
 std::string number_text(double v) {

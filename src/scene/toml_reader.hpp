@@ -27,7 +27,6 @@
 namespace penumbra::scene::file {
 
 namespace fs = std::filesystem;
-inline constexpr double kInf = std::numeric_limits<double>::infinity();
 
 // ---- small helpers ---------------------------------------------------------------------------
 
@@ -119,17 +118,7 @@ inline std::string join(const std::vector<std::string_view>& words) {
 }
 
 using Range = ParamRange;
-
-constexpr Range kAny{};
-constexpr Range kPositive{0.0, kInf, true, false};
-constexpr Range kNonNegative{0.0, kInf, false, false};
-constexpr Range kUnit{0.0, 1.0, false, false};
-constexpr Range closed(double lo, double hi) {
-  return Range{lo, hi, false, false};
-}
-constexpr Range open(double lo, double hi) {
-  return Range{lo, hi, true, true};
-}
+using namespace ranges;
 
 template <class E>
 using Names = std::vector<std::pair<std::string_view, E>>;

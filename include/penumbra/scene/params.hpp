@@ -38,6 +38,21 @@ struct ParamRange {
   std::string text() const;
 };
 
+// The ranges the table and the scene file's other keys use.
+namespace ranges {
+inline constexpr double kInf = std::numeric_limits<double>::infinity();
+inline constexpr ParamRange kAny{};
+inline constexpr ParamRange kPositive{0.0, kInf, true, false};
+inline constexpr ParamRange kNonNegative{0.0, kInf, false, false};
+inline constexpr ParamRange kUnit{0.0, 1.0, false, false};
+constexpr ParamRange closed(double lo, double hi) {
+  return ParamRange{lo, hi, false, false};
+}
+constexpr ParamRange open(double lo, double hi) {
+  return ParamRange{lo, hi, true, true};
+}
+}  // namespace ranges
+
 enum class ParamType {
   number,   // a float field
   integer,  // an integer field, range [lo, hi]

@@ -6,16 +6,15 @@
 
 #include <cstdint>
 #include <glm/glm.hpp>
+#include <penumbra/core/depth.hpp>
 
 namespace penumbra::shadow {
 
 // The maximum number of cascades (or clipmap levels) of one directional light.
 inline constexpr std::uint32_t kMaxCascades = 8;
 
-// How a [near, far] range maps to Vulkan's [0, 1] depth.
-//   reverse_z (default): near -> 1, far -> 0; depth test GREATER(_OR_EQUAL); clear to 0.
-//   standard:            near -> 0, far -> 1; depth test LESS(_OR_EQUAL);    clear to 1.
-enum class DepthConvention : std::uint32_t { standard = 0, reverse_z = 1 };
+// How a [near, far] range maps to Vulkan's [0, 1] depth (penumbra/core/depth.hpp).
+using DepthConvention = penumbra::DepthConvention;
 
 // An axis-aligned box in world space. Valid boxes are finite with min <= max on every axis and
 // a positive extent on at least one axis (a flat ground plane is a valid scene).

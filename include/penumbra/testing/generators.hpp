@@ -17,8 +17,8 @@
 #include <cstdint>
 #include <glm/glm.hpp>
 #include <initializer_list>
+#include <penumbra/core/depth.hpp>
 #include <penumbra/core/error.hpp>
-#include <penumbra/shadow/types.hpp>
 #include <penumbra/testing/values.hpp>
 #include <random>
 #include <string>
@@ -30,7 +30,7 @@
 namespace penumbra::testing {
 
 // The project's one depth convention type (reverse_z or standard).
-using DepthConvention = penumbra::shadow::DepthConvention;
+using DepthConvention = penumbra::DepthConvention;
 
 // The seed used when neither the test nor PENUMBRA_SEED picks one.
 inline constexpr std::uint64_t kDefaultSeed = 12345;
