@@ -113,6 +113,7 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   scene::set_param(s, "shadows.filter", "poisson");
   scene::set_param(s, "shadows.pcf_radius", "3");
   scene::set_param(s, "shadows.pcss_quality", "high");
+  scene::set_param(s, "shadows.poisson_taps", "24");
   scene::set_param(s, "shadows.pcss_confidence", "0.25");
   scene::set_param(s, "shadows.normal_offset_texels", "0.75");
   scene::set_param(s, "shadows.slope_bias", "3");
@@ -122,7 +123,7 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
   EXPECT_EQ(f.frame.mode.z, filter_index(scene::Filter::poisson));
   EXPECT_EQ(f.frame.mode.w, uint32_t(scene::DebugView::penumbra));
-  EXPECT_EQ(f.frame.filter_params, glm::vec4(3.0f, 2.0f, 16.0f, 3.5f));
+  EXPECT_EQ(f.frame.filter_params, glm::vec4(3.0f, 2.0f, 24.0f, 3.5f));
   EXPECT_EQ(f.frame.pcss.x, 0.25f);
   EXPECT_EQ(f.frame.bias.x, 0.75f);
   EXPECT_EQ(f.frame.bias.y, 3.0f);
@@ -141,6 +142,7 @@ TEST(PackFrame, PcssClampsAndCascadeKeysReachTheShadowBlock) {
   scene::set_param(s, "shadows.pcss_min_filter_texels", "2");
   scene::set_param(s, "shadows.pcss_max_filter_texels", "12");
   scene::set_param(s, "shadows.max_distance", "35");
+  scene::set_param(s, "shadows.snap_to_texels", "false");
   s.shadows.cascades = 3;
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
   EXPECT_EQ(f.shadow.pcss.y, 24.0f);
@@ -149,6 +151,11 @@ TEST(PackFrame, PcssClampsAndCascadeKeysReachTheShadowBlock) {
   EXPECT_EQ(f.shadow.counts.x, 3u);
   EXPECT_EQ(f.shadow.selection.z, 35.0f);
   EXPECT_EQ(f.cascades.cascades.size(), 3u);
+  // snap_to_texels reaches the cascade fit: snapped and unsnapped matrices differ.
+  scene::Scene snapped = s;
+  snapped.shadows.snap_to_texels = true;
+  const PackedFrame g = pack_frame(snapped, 640, 360, caps_of(snapped), 0);
+  EXPECT_NE(f.cascades.cascades[0].view_proj, g.cascades.cascades[0].view_proj);
   // Without sun shadows there are no cascades.
   FrameCaps no_sun = caps_of(s);
   no_sun.sun_shadows = false;

@@ -143,7 +143,9 @@ TEST(Params, EveryKeyIsUniqueAndNamesItsTable) {
     ASSERT_NE(p.get, nullptr) << p.key;
     ASSERT_NE(p.set, nullptr) << p.key;
     EXPECT_EQ(find_param(p.key), &p);
-    if (p.type == ParamType::choice) EXPECT_GE(p.choices.size(), 2u) << p.key;
+    if (p.type == ParamType::choice) {
+      EXPECT_GE(p.choices.size(), 2u) << p.key;
+    }
   }
   EXPECT_GE(params().size(), 40u);
 }

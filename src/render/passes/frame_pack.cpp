@@ -100,6 +100,7 @@ void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const 
   cfg.fit = sh.fit;
   cfg.depth = depth_of(sh.reverse_z);
   cfg.depth_clamp = caps.depth_clamp;
+  cfg.snap_to_texels = sh.snap_to_texels;
   cfg.blend_fraction = sh.blend_band;
   cfg.fade_fraction = sh.fade_band;
   cfg.pcss.blocker_search_texels = sh.pcss_search_texels;
@@ -186,8 +187,9 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   const auto& sh = scene.shadows;
   frame.bias =
       glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.constant_bias * 20.0f);
-  frame.filter_params = glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), 16.0f,
-                                  std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+  frame.filter_params =
+      glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
+                std::max(1.0f, float(sh.pcf_radius) + 0.5f));
   frame.pcss = glm::vec4(sh.pcss_confidence, 0.0f, 0.0f, 0.0f);
   frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
                           uint32_t(scene.render.view));
