@@ -10,9 +10,12 @@
 #include <penumbra/gpu/validation.hpp>
 #include <penumbra/reference/frame.hpp>
 #include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace {
 namespace fs = std::filesystem;
@@ -26,6 +29,7 @@ struct Options {
   penumbra::reference::MeasureOptions measure;
   bool cache = true;
   fs::path cache_dir;
+  std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
 };
 
 void usage(FILE* f) {
@@ -34,8 +38,10 @@ void usage(FILE* f) {
       "usage: penumbra-reference [--scene NAME|FILE] [--out DIR] [--size WxH] [--frame N]\n"
       "                          [--samples N] [--initial-samples N] [--no-adaptive] [--seed S]\n"
       "                          [--light NAME]... [--threshold T] [--threads N]\n"
-      "                          [--cache DIR | --no-cache]\n"
+      "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
+      "  --set        override a parameter-table key after loading, e.g.\n"
+      "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
       "  --out        where the PNGs and metrics.json go (default out/<scene>/reference)\n"
       "  --size       the frame size (default: the scene's [render] size)\n"
       "  --frame      frame index rendered (temporal noise; default 0)\n"
@@ -104,7 +110,13 @@ Options parse(int argc, char** argv) {
       o.cache_dir = value();
     else if (a == "--no-cache")
       o.cache = false;
-    else if (a == "--help" || a == "-h") {
+    else if (a == "--set") {
+      const std::string v = value();
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw Error("--set " + v + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
+      o.sets.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    } else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
     } else
@@ -126,10 +138,18 @@ std::string json_string(const std::string& s) {
 int run(int argc, char** argv) {
   Options o = parse(argc, argv);
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
-  const penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
+  penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
+  for (const auto& [key, text] : o.sets) {
+    try {
+      penumbra::scene::set_param(scene, key, text);
+    } catch (const std::exception& e) {
+      throw Error("--set " + key + "=" + text + ": " + e.what());
+    }
+  }
   if (o.out.empty()) o.out = fs::path("out") / scene.name / "reference";
-  if (o.cache) o.measure.cache_dir = o.cache_dir.empty() ? penumbra::reference::default_cache_dir()
-                                                         : o.cache_dir;
+  if (o.cache)
+    o.measure.cache_dir =
+        o.cache_dir.empty() ? penumbra::reference::default_cache_dir() : o.cache_dir;
   o.measure.trace.progress = true;
 
   penumbra::gpu::Context ctx;
@@ -140,15 +160,18 @@ int run(int argc, char** argv) {
   penumbra::render::Renderer renderer(ctx, scene, ro);
   renderer.render(o.frame);
   const auto m = penumbra::reference::measure_frame(renderer, o.measure);
-  if (m.lights.empty()) std::printf("note: scene '%s' has no lights to measure\n", scene.name.c_str());
+  if (m.lights.empty())
+    std::printf("note: scene '%s' has no lights to measure\n", scene.name.c_str());
   if (m.triangles == 0)
-    std::printf("note: scene '%s' has no shadow casters (no meshes, or every object has "
-                "casts_shadows = false): every light is fully visible\n",
-                scene.name.c_str());
+    std::printf(
+        "note: scene '%s' has no shadow casters (no meshes, or every object has "
+        "casts_shadows = false): every light is fully visible\n",
+        scene.name.c_str());
   if (m.receivers.rejected > 0)
-    std::printf("note: %zu pixels have a non-finite position or normal (NaN in a mesh?) and are "
-                "not measured\n",
-                m.receivers.rejected);
+    std::printf(
+        "note: %zu pixels have a non-finite position or normal (NaN in a mesh?) and are "
+        "not measured\n",
+        m.receivers.rejected);
 
   std::ostringstream header;
   header << "\"scene\": " << json_string(scene.name)

@@ -263,17 +263,21 @@ inline PcssResult pcss(const DepthMap& m, glm::dvec2 uv, float receiver, const P
   PcssResult r;
   if (!in_map(uv, receiver)) return r;
   const float d = clamp_depth(receiver);
-  r.search_radius = search_radius_texels(d, p, reverse_z);
+  // The filters search at least min_filter + 1 texels and at most max(max_search, that), so
+  // that PCSS stays continuous at its degenerate ends (pcss.glsl, pcss_search_radius_bounded).
+  const double lo = std::max<double>(p.min_filter_texels, 0.0) + 1.0;
+  r.search_radius = std::clamp(search_radius_texels(d, p, reverse_z), lo,
+                               std::max<double>(p.max_search_texels, lo));
   const BlockerSearch s = blocker_search(m, uv, d, search_offsets, r.search_radius, reverse_z);
   r.ambiguous = s.ambiguous;
   r.blockers = s.count;
   if (s.count == 0) return r;
-  r.filter_radius = filter_radius_texels(d, s.average, p, reverse_z);
+  // The filter never reaches further than the search looked.
+  const double unclamped = filter_radius_texels(d, s.average, p, reverse_z);
+  r.filter_radius = std::min(unclamped, r.search_radius);
   const int n = static_cast<int>(search_offsets.size());
+  if (std::abs(unclamped - r.search_radius) <= 1e-4 * (1.0 + r.search_radius)) r.ambiguous = true;
   if (s.count == n) {
-    if (std::abs(r.filter_radius - r.search_radius) <= 1e-4 * (1.0 + r.search_radius)) {
-      r.ambiguous = true;
-    }
     if (r.filter_radius <= r.search_radius) {
       r.shadow = 0.0;
       return r;

@@ -125,4 +125,60 @@ float apply_depth_bias(float depth, float bias, bool reverse_z) {
   return reverse_z ? depth + bias : depth - bias;
 }
 
+
+// ---- Biases in world units -------------------------------------------------------------------
+//
+// A depth bias in depth-buffer units means a different world distance for every projection
+// (orthographic cascades: linear in depth; perspective spot maps: growing with the square of the
+// distance; cube maps storing linear distance). Penumbra's biases are world distances along the
+// light ray instead, applied by moving the receiver towards the light before projecting it: the
+// point stays on the same ray from the light (the same shadow-map uv under every projection),
+// only its depth changes, by exactly bias_world metres. A blocker then shadows the receiver only
+// when it is more than bias_world closer to the light, so a caster's shadow starts bias_world
+// (measured along the light) from where the caster meets the receiver.
+
+// Returns the depth bias in world units along the light ray: constant_world + slope_texels *
+// texel_world * tan(theta) (cos(theta) = n_dot_l), at most constant_world + max_slope_texels *
+// texel_world. A surface tilted by theta to the light changes its depth by texel_world *
+// tan(theta) across one shadow-map texel of world size texel_world (the texel's footprint at the
+// receiver), so slope_texels is in texels of that change. Back faces, N.L = 0 and NaN get the
+// maximum (slope_scaled_bias). Negative or NaN parameters count as 0.
+float world_depth_bias(float n_dot_l, float constant_world, float slope_texels,
+                       float max_slope_texels, float texel_world) {
+  float c = penumbra_is_nan(constant_world) ? 0.0 : max(constant_world, 0.0);
+  float t = penumbra_is_nan(texel_world) ? 0.0 : max(texel_world, 0.0);
+  float s = penumbra_is_nan(slope_texels) ? 0.0 : max(slope_texels, 0.0);
+  float m = penumbra_is_nan(max_slope_texels) ? 0.0 : max(max_slope_texels, 0.0);
+  return slope_scaled_bias(n_dot_l, c, s * t, c + m * t);
+}
+
+// Returns p moved towards the light by bias_world along to_light (the direction towards the
+// light: for a directional light the light direction, for a spot or point light the direction
+// from p to the light's position; need not be unit length). p itself for a degenerate to_light
+// (zero, denormal length or non-finite), a bias <= 0 or NaN. The caller keeps bias_world below
+// the distance to a local light.
+vec3 bias_toward_light(vec3 p, vec3 to_light, float bias_world) {
+  float ll = dot(to_light, to_light);
+  if (!(ll >= kBiasMinNormal) || !penumbra_is_finite(ll) || !(bias_world > 0.0)) return p;
+  return p + to_light * (inversesqrt(ll) * bias_world);
+}
+
+// Returns the world size of one texel of a perspective (spot) shadow map at a receiver at
+// axial_distance along the light's axis: texel_at_unit_distance (SpotShadowGpu.params.z, the
+// texel's size at distance 1) times that distance (0 behind the light or for NaN).
+float perspective_texel_world_size(float texel_at_unit_distance, float axial_distance) {
+  float d = penumbra_is_nan(axial_distance) ? 0.0 : max(axial_distance, 0.0);
+  return texel_at_unit_distance * d;
+}
+
+// Returns the world size of one cube-map texel at a receiver at light_to_receiver from the
+// light (need not be unit length): the face is chosen by the largest component m, where one
+// face texel spans 2 m / resolution (its size on the face's axis; off-axis texels are seen
+// obliquely and up to 1.7x larger, which the normal offset need not follow). 0 for NaN.
+float cube_texel_world_size(vec3 light_to_receiver, float resolution) {
+  vec3 a = abs(light_to_receiver);
+  float m = max(max(a.x, a.y), a.z);
+  return penumbra_is_nan(m) || !(resolution > 0.0) ? 0.0 : 2.0 * m / resolution;
+}
+
 #endif  // PENUMBRA_BIAS_GLSL

@@ -55,7 +55,8 @@ const float kContactMinNormal = 1.175494351e-38;
 // (include/penumbra/render/contact_shadows.hpp), checked against SPIR-V reflection. 80 bytes,
 // the same under std140, std430 and C++.
 struct ContactShadowGpu {
-  vec4 light_dir;        // xyz: unit direction towards the light in view space; w: 0
+  vec4 light_dir;        // w 0: xyz the unit direction towards a directional light (view space);
+                         // w 1: xyz the position of a spot or point light (view space)
   vec2 extent;           // width, height of the depth buffer in pixels
   float tan_half_fov_y;  // tan of half the vertical field of view
   float aspect;          // width / height of the projection (tan_half_fov_x / tan_half_fov_y)
@@ -251,7 +252,8 @@ float contact_edge_fade(vec2 uv, float fade_width) {
 // 1): sky, back-facing (N.L <= 0: the lighting's N.L term already darkens it, and its ray would
 // start inside its own surface), degenerate light direction or parameters, a ray shorter than a
 // pixel. Otherwise uv_segment = (uv_start, uv_end) and inv_z = (1 / z_start, 1 / z_end) of the
-// ray from the pixel's view position along light_dir, clamped before the camera plane and
+// ray from the pixel's view position along light_dir (towards the light's position for a
+// positional light, at most as far as the light), clamped before the camera plane and
 // clipped to the screen (both > 0), and tolerance is the depth tolerance at the receiver.
 uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p,
                        out vec4 uv_segment, out vec2 inv_z, out float tolerance) {
@@ -261,16 +263,19 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
   bool reverse_z = p.reverse_z != 0u;
   float z0 = contact_surface_depth(depth, p.near_plane, p.far_plane, reverse_z);
   if (!(z0 > 0.0)) return 0u;
-  vec3 l = p.light_dir.xyz;
+  vec3 origin = contact_ray_origin(pixel, z0, p);
+  // A positional light: the ray goes towards its position, and no further than the light.
+  bool positional = p.light_dir.w != 0.0;
+  vec3 l = positional ? p.light_dir.xyz - origin : p.light_dir.xyz;
   float ll = dot(l, l);
   if (!(ll >= kContactMinNormal) || !penumbra_is_finite(ll)) return 0u;
+  float max_distance = positional ? min(p.max_distance, sqrt(ll)) : p.max_distance;
   l *= inversesqrt(ll);
   float n_dot_l = contact_n_dot_l(normal, l);
   if (!(n_dot_l > 0.0)) return 0u;
 
   vec2 uv0 = contact_pixel_uv(pixel, p.extent);
-  vec3 origin = contact_ray_origin(pixel, z0, p);
-  vec3 end = contact_ray_end(origin, l, p.max_distance, p.near_plane);
+  vec3 end = contact_ray_end(origin, l, max_distance, p.near_plane);
   float z1 = -end.z;
   if (!(z1 > 0.0) || !penumbra_is_finite(z1)) return 0u;
   vec2 uv1 = contact_project_uv(end, p.tan_half_fov_y, p.aspect);
@@ -299,7 +304,8 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
 // mask is 1 - intensity * (the largest weight of an occluding tap), clamped to [0, 1].
 float contact_shadow(sampler2D filtered_depth, sampler2D nearest_depth, ivec2 pixel,
                      vec3 normal, ContactShadowGpu p, bool use_bilinear, bool use_nearest) {
-  ivec2 size = ivec2(p.extent);
+  // Texel reads stay inside the depth image even when p.extent claims more than it holds.
+  ivec2 size = min(ivec2(p.extent), textureSize(nearest_depth, 0));
   if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, size))) return 1.0;
   float depth = texelFetch(nearest_depth, pixel, 0).r;
   vec4 segment;

@@ -32,7 +32,7 @@ struct FrameGpu {
   uvec4 counts;
   LightGpu spots[kMaxSpotLights];
   LightGpu points[kMaxPointLights];
-  vec4 pcss;  // x: PCSS confidence fraction
+  vec4 pcss;  // x: PCSS confidence fraction; y, z, w: local lights' PCSS search, min, max filter texels
 };
 
 struct DrawPush {

@@ -29,6 +29,10 @@
 //   frustum width), clamped to max_search_texels.
 // - A blocker is a search sample strictly closer to the light than the receiver (apply depth
 //   bias to the receiver depth before calling). The blocker depth is their mean.
+// - Continuity at the degenerate ends: pcss_shadow searches at least min_filter_texels + 1
+//   texels (pcss_search_radius_bounded) and filters at most as far as it searched, so angular
+//   diameter 0 and receivers at the near plane degrade to PCF with the minimum filter, and a
+//   search clamped below the filter narrows the penumbra instead of cutting its outer part off.
 // - Early-outs: no blocker -> 1.0 (lit, no filtering). Every search sample a blocker and the
 //   filter disk inside the search disk (filter radius <= search radius) -> 0.0 (fully shadowed,
 //   no filtering): the filter region was searched and found all blockers.
@@ -93,6 +97,20 @@ float pcss_search_radius_texels(float receiver_depth, PcssParams params, bool re
   return penumbra_is_finite(radius) ? clamp(radius, 0.0, hi) : 0.0;
 }
 
+// Returns the search radius the filters use: radius_texels clamped to
+// [min_filter_texels + 1, max(max_search_texels, min_filter_texels + 1)], the upper bound for a
+// NaN or infinite radius. The lower bound keeps PCSS continuous at its degenerate ends (a light
+// of angular diameter 0, a receiver at the light's near plane): a search disk that shrank to a
+// point would find no blocker at a shadow edge and jump to lit, where the filter of
+// min_filter_texels (plus its taps' one-texel bilinear tent) sees the edge. Negative and NaN
+// bounds count as 0.
+float pcss_search_radius_bounded(float radius_texels, float min_filter_texels,
+                                 float max_search_texels) {
+  float lo = (penumbra_is_finite(min_filter_texels) ? max(min_filter_texels, 0.0) : 0.0) + 1.0;
+  float hi = max(penumbra_is_finite(max_search_texels) ? max_search_texels : 0.0, lo);
+  return penumbra_is_finite(radius_texels) ? clamp(radius_texels, lo, hi) : hi;
+}
+
 // Returns the world distance along the light from the receiver up to the blocker (0 when the
 // blocker depth is not closer to the light than the receiver).
 float pcss_blocker_distance(float receiver_depth, float blocker_depth, PcssParams params,
@@ -142,11 +160,14 @@ float pcss_fetch_depth(sampler2D depth_map, vec2 uv) {
   return texelFetch(depth_map, ivec2(texel), 0).r;
 }
 
-// Returns the raw depth of pcss_fetch_depth in layer `layer` of an array map.
+// Returns the raw depth of pcss_fetch_depth in layer `layer` of an array map. The layer is
+// clamped to the map's layers, as texture() does for the compare taps of the same map (Vulkan
+// clamps the array coordinate of a sampled lookup, while texelFetch out of range is undefined):
+// PCSS and PCF then read the same layer for any layer argument.
 float pcss_fetch_depth_array(sampler2DArray depth_map, vec2 uv, int layer) {
-  vec2 size = vec2(textureSize(depth_map, 0).xy);
-  vec2 texel = clamp(floor(uv * size), vec2(0.0), size - 1.0);
-  return texelFetch(depth_map, ivec3(ivec2(texel), layer), 0).r;
+  ivec3 size = textureSize(depth_map, 0);
+  vec2 texel = clamp(floor(uv * vec2(size.xy)), vec2(0.0), vec2(size.xy) - 1.0);
+  return texelFetch(depth_map, ivec3(ivec2(texel), clamp(layer, 0, size.z - 1)), 0).r;
 }
 
 // Returns the uv of blocker-search tap `index` of `count`: a Vogel disk of radius_texels texels.
@@ -222,13 +243,16 @@ float pcss_shadow(sampler2DShadow compare_map, sampler2D depth_map, vec3 coord, 
   if (!pcf_coord_in_map(coord)) return 1.0;
   vec3 c = vec3(coord.xy, clamp(coord.z, 0.0, 1.0));
   int search_taps = pcss_search_tap_count(tier);
-  float search_radius = pcss_search_radius_texels(c.z, params, reverse_z);
+  float search_radius = pcss_search_radius_bounded(
+      pcss_search_radius_texels(c.z, params, reverse_z), params.min_filter_texels,
+      params.max_search_texels);
   float blocker_depth;
   int blockers;
   pcss_blocker_search(depth_map, c, search_radius, search_taps, rotation, texel_size, reverse_z,
                       blocker_depth, blockers);
   if (blockers == 0) return 1.0;
-  float filter_radius = pcss_filter_radius_texels(c.z, blocker_depth, params, reverse_z);
+  float filter_radius =
+      min(pcss_filter_radius_texels(c.z, blocker_depth, params, reverse_z), search_radius);
   if (!pcss_needs_filter(blockers, search_taps, search_radius, filter_radius)) return 0.0;
   float filtered =
       pcf_vogel(compare_map, c, pcss_filter_tap_count(tier), filter_radius, rotation, texel_size);
@@ -244,13 +268,16 @@ float pcss_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray depth_m
   if (!pcf_coord_in_map(coord)) return 1.0;
   vec3 c = vec3(coord.xy, clamp(coord.z, 0.0, 1.0));
   int search_taps = pcss_search_tap_count(tier);
-  float search_radius = pcss_search_radius_texels(c.z, params, reverse_z);
+  float search_radius = pcss_search_radius_bounded(
+      pcss_search_radius_texels(c.z, params, reverse_z), params.min_filter_texels,
+      params.max_search_texels);
   float blocker_depth;
   int blockers;
   pcss_blocker_search_array(depth_map, c, layer, search_radius, search_taps, rotation, texel_size,
                             reverse_z, blocker_depth, blockers);
   if (blockers == 0) return 1.0;
-  float filter_radius = pcss_filter_radius_texels(c.z, blocker_depth, params, reverse_z);
+  float filter_radius =
+      min(pcss_filter_radius_texels(c.z, blocker_depth, params, reverse_z), search_radius);
   if (!pcss_needs_filter(blockers, search_taps, search_radius, filter_radius)) return 0.0;
   float filtered = pcf_vogel_array(compare_map, c, layer, pcss_filter_tap_count(tier),
                                    filter_radius, rotation, texel_size);

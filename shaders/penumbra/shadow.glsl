@@ -11,6 +11,7 @@
 #include "penumbra/cascade.glsl"
 #include "penumbra/pcf.glsl"
 #include "penumbra/pcss.glsl"
+#include "penumbra/local_shadow.glsl"
 #include "penumbra/vsm.glsl"
 
 #endif  // PENUMBRA_SHADOW_GLSL

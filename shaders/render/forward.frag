@@ -1,13 +1,10 @@
 #version 460
-// Forward lighting: sun (visibility from the resolve, times the contact mask), spot and point
-// lights with their own shadow maps, hemispheric ambient. HDR output.
+// Forward lighting: sun (visibility from the resolve), spot and point lights (visibility from the
+// local-light resolve), the contact mask on the primary light's, hemispheric ambient. HDR output.
 #include "penumbra/common.glsl"
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/material.glsl"
-#include "penumbra/pcf.glsl"
-#include "penumbra/cascade.glsl"
-#include "penumbra/bias.glsl"
 
 #ifndef PENUMBRA_SUN_SHADOWS
 #define PENUMBRA_SUN_SHADOWS 0
@@ -36,13 +33,13 @@ layout(set = 0, binding = 1) uniform sampler2D shadow_info;
 #if PENUMBRA_CONTACT
 layout(set = 0, binding = 2) uniform sampler2D contact_mask;
 #endif
-#if PENUMBRA_SPOT_SHADOWS > 0
-layout(set = 0, binding = 3) uniform SpotBlock { SpotShadowGpu spot_shadows[kMaxSpotLights]; };
-layout(set = 0, binding = 4) uniform sampler2DArrayShadow spot_maps;  // one layer per map
-#endif
-#if PENUMBRA_POINT_SHADOWS > 0
-layout(set = 0, binding = 5) uniform PointBlock { PointShadowGpu point_shadows[kMaxPointLights]; };
-layout(set = 0, binding = 6) uniform samplerCubeArrayShadow point_maps;  // one cube per map
+#if PENUMBRA_SPOT_SHADOWS > 0 || PENUMBRA_POINT_SHADOWS > 0
+// The local lights' filtered visibility (local_shadow_resolve.comp): spot 0, spot 1, point 0,
+// point 1.
+layout(set = 0, binding = 3) uniform sampler2D local_shadow;
+#define PENUMBRA_LOCAL_SHADOWS 1
+#else
+#define PENUMBRA_LOCAL_SHADOWS 0
 #endif
 
 layout(push_constant) uniform Push { DrawPush draw; };
@@ -75,6 +72,12 @@ void main() {
   ivec2 pixel = ivec2(gl_FragCoord.xy);
   vec3 color = albedo * frame.ambient.rgb * (0.6 + 0.4 * n.y);
   float slot_visibility[8] = float[8](1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0, 1.0);
+  // The contact mask darkens the primary light (frame.counts.w: its slot).
+  float contact = 1.0;
+#if PENUMBRA_CONTACT
+  contact = texelFetch(contact_mask, pixel, 0).r;
+#endif
+  uint primary = frame.counts.z != 0u ? frame.counts.w : 0xffffffffu;
 
   if (frame.sun_direction.w > 0.0) {
     vec3 l = frame.sun_direction.xyz;
@@ -82,9 +85,7 @@ void main() {
 #if PENUMBRA_SUN_SHADOWS
     visibility = texelFetch(shadow_info, pixel, 0).r;
 #endif
-#if PENUMBRA_CONTACT
-    visibility *= texelFetch(contact_mask, pixel, 0).r;
-#endif
+    if (primary == 0u) visibility *= contact;
     slot_visibility[0] = visibility;
     color += brdf * frame.sun_color.rgb * frame.sun_direction.w * max(dot(n, l), 0.0) * visibility;
   }
@@ -95,18 +96,10 @@ void main() {
     float dist = length(d);
     vec3 l = d / max(dist, 1e-6);
     float visibility = 1.0;
-#if PENUMBRA_SPOT_SHADOWS > 0
-    int map = int(light.params.y);
-    if (map >= 0) {
-      SpotShadowGpu s = spot_shadows[map];
-      float texel_world = s.params.z * dist;
-      vec3 offset = normal_offset(n, l, texel_world, frame.bias.x);
-      vec3 coord = world_to_shadow_coord(s.view_proj, in_position + offset);
-      float bias = slope_scaled_bias(dot(n, l), frame.bias.z, frame.bias.y * frame.bias.z, frame.bias.w);
-      coord.z = apply_depth_bias(coord.z, bias, s.info.y == 1u);
-      visibility = pcf_grid_array(spot_maps, coord, map, 1, vec2(1.0 / float(s.info.x)));
-    }
+#if PENUMBRA_LOCAL_SHADOWS
+    if (light.params.y >= 0.0) visibility = texelFetch(local_shadow, pixel, 0)[i];
 #endif
+    if (primary == uint(1 + i)) visibility *= contact;
     slot_visibility[1 + i] = visibility;
     color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
              spot_cone(light, l) * range_falloff(dist, light.position_range.w) * visibility;
@@ -118,21 +111,10 @@ void main() {
     float dist = length(d);
     vec3 l = d / max(dist, 1e-6);
     float visibility = 1.0;
-#if PENUMBRA_POINT_SHADOWS > 0
-    int map = int(light.params.y);
-    if (map >= 0) {
-      PointShadowGpu s = point_shadows[map];
-      // Normal offset by about one cube texel at this distance, then compare the biased linear
-      // distance (reverse-Z stores 1 - t: GREATER_OR_EQUAL compare, bias adds).
-      float texel_world = 2.0 * dist / float(s.info.z);
-      vec3 q = in_position + normal_offset(n, l, texel_world, frame.bias.x);
-      vec3 v = q - s.position.xyz;
-      float t = clamp((length(v) - s.depth_range.x) * s.depth_range.z, 0.0, 1.0);
-      float ref = s.info.y == 1u ? 1.0 - t : t;
-      ref = apply_depth_bias(ref, frame.bias.z, s.info.y == 1u);
-      visibility = texture(point_maps, vec4(v, float(map)), ref);
-    }
+#if PENUMBRA_LOCAL_SHADOWS
+    if (light.params.y >= 0.0) visibility = texelFetch(local_shadow, pixel, 0)[kMaxSpotLights + i];
 #endif
+    if (primary == uint(1 + kMaxSpotLights + i)) visibility *= contact;
     slot_visibility[1 + kMaxSpotLights + i] = visibility;
     color += brdf * light.color_intensity.rgb * light.color_intensity.w * max(dot(n, l), 0.0) *
              range_falloff(dist, light.position_range.w) * visibility;

@@ -1,6 +1,6 @@
 #version 460
 // Sun shadow resolve: per pixel, cascade select + blend + distance fade + normal-offset and
-// slope-scaled bias + the configured filter, all through the library in penumbra/shadow.glsl.
+// world-unit depth bias + the configured filter, all through the library in penumbra/shadow.glsl.
 // Output rgba16f: r visibility (1 lit), g cascade index (-1 none), b PCSS penumbra width in
 // texels (-1: the surface faces away from the sun), a shadow-map texels per screen pixel (texel density).
 #include "penumbra/frame_types.glsl"
@@ -24,11 +24,14 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   CascadeGpu cascade = shadow.cascades[c];
   float texel_world = cascade.params.x;
   bool reverse_z = shadow.counts.y == 1u;
+  // World-unit biases (bias.glsl): the normal offset in this cascade's texels, then the receiver
+  // moves towards the sun by the depth bias in metres (the cascade's depth is linear, so this is
+  // exactly bias / depth range in depth units).
   vec3 offset = normal_offset(n, to_light, texel_world, frame.bias.x);
-  vec3 coord = world_to_shadow_coord(cascade.view_proj, p + offset);
-  float n_dot_l = dot(n, to_light);
-  float bias = slope_scaled_bias(n_dot_l, frame.bias.z, frame.bias.y * frame.bias.z, frame.bias.w);
-  coord.z = apply_depth_bias(coord.z, bias, reverse_z);
+  float bias = world_depth_bias(dot(n, to_light), frame.bias.z, frame.bias.y, frame.bias.w,
+                                texel_world);
+  vec3 coord =
+      world_to_shadow_coord(cascade.view_proj, bias_toward_light(p + offset, to_light, bias));
   vec2 texel = vec2(1.0 / float(shadow.counts.z));
   float rotation = 6.2831853 * interleaved_gradient_noise_temporal(pixel, frame.mode.x);
   PcssParams params;

@@ -9,6 +9,12 @@
 #ifndef PENUMBRA_CONTACT
 #define PENUMBRA_CONTACT 0
 #endif
+#ifndef PENUMBRA_SPOT_SHADOWS
+#define PENUMBRA_SPOT_SHADOWS 0
+#endif
+#ifndef PENUMBRA_POINT_SHADOWS
+#define PENUMBRA_POINT_SHADOWS 0
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
@@ -20,6 +26,13 @@ layout(set = 0, binding = 2) uniform sampler2D shadow_info;
 layout(set = 0, binding = 3) uniform sampler2D contact_mask;
 #endif
 layout(set = 0, binding = 4, rgba8) uniform writeonly image2D ldr;
+#if PENUMBRA_SPOT_SHADOWS > 0 || PENUMBRA_POINT_SHADOWS > 0
+// The local lights' visibility (local_shadow_resolve.comp): spot 0, spot 1, point 0, point 1.
+layout(set = 0, binding = 5) uniform sampler2D local_shadow;
+#define PENUMBRA_LOCAL_SHADOWS 1
+#else
+#define PENUMBRA_LOCAL_SHADOWS 0
+#endif
 
 vec3 aces(vec3 x) {
   return clamp((x * (2.51 * x + 0.03)) / (x * (2.43 * x + 0.59) + 0.14), 0.0, 1.0);
@@ -50,7 +63,14 @@ void main() {
 #if PENUMBRA_CONTACT
   contact = texelFetch(contact_mask, pixel, 0).r;
 #endif
-  if (view == kViewShadowFactor) out_rgb = vec3(info.r * contact);
+  // The shadow factor of every light together: the product of their visibilities (1 where a
+  // light does not reach) and the contact mask.
+  float local = 1.0;
+#if PENUMBRA_LOCAL_SHADOWS
+  vec4 v = texelFetch(local_shadow, pixel, 0);
+  local = v.x * v.y * v.z * v.w;
+#endif
+  if (view == kViewShadowFactor) out_rgb = vec3(info.r * local * contact);
   if (view == kViewCascades) {
     vec3 tint = info.g >= 0.0 ? kCascadeColors[int(info.g) & 7] : vec3(1.0);
     out_rgb = mix(out_rgb, tint * (0.3 + 0.7 * info.r), 0.6);

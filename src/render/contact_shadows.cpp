@@ -132,15 +132,23 @@ ContactShadowGpu pack_contact_shadow(const ContactShadowSettings& settings,
     throw Error("pack_contact_shadow: extent " + std::to_string(width) + "x" +
                 std::to_string(height) + " must not be empty");
   }
-  const glm::dvec3 l = frame.light_dir_view;
-  const double len = glm::length(l);
-  if (!(len > 0.0) || !std::isfinite(len)) {
-    throw Error("ContactShadowFrame.light_dir_view = (" + str(l.x) + ", " + str(l.y) + ", " +
-                str(l.z) + "): must be finite and non-zero");
-  }
   const ContactCamera& c = frame.camera;
   ContactShadowGpu g;
-  g.light_dir = glm::vec4(glm::vec3(l / len), 0.0f);
+  if (frame.light_position_view) {
+    const glm::dvec3 p = *frame.light_position_view;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z))
+      throw Error("ContactShadowFrame.light_position_view = (" + str(p.x) + ", " + str(p.y) + ", " +
+                  str(p.z) + "): must be finite");
+    g.light_dir = glm::vec4(glm::vec3(p), 1.0f);
+  } else {
+    const glm::dvec3 l = frame.light_dir_view;
+    const double len = glm::length(l);
+    if (!(len > 0.0) || !std::isfinite(len)) {
+      throw Error("ContactShadowFrame.light_dir_view = (" + str(l.x) + ", " + str(l.y) + ", " +
+                  str(l.z) + "): must be finite and non-zero");
+    }
+    g.light_dir = glm::vec4(glm::vec3(l / len), 0.0f);
+  }
   g.extent = glm::vec2(static_cast<float>(width), static_cast<float>(height));
   g.tan_half_fov_y = static_cast<float>(c.tan_half_fov_y);
   g.aspect = static_cast<float>(c.aspect);

@@ -133,13 +133,17 @@ struct Renderer::Impl {
     shadow_maps = std::make_unique<ShadowMapPass>(res);
     std::unique_ptr<Pass> resolve;
     if (req.sun_shadows) resolve = std::make_unique<ShadowResolvePass>(res, *shadow_maps);
+    std::unique_ptr<Pass> local_resolve;
+    if (req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0)
+      local_resolve = std::make_unique<LocalShadowResolvePass>(res, *shadow_maps);
     std::unique_ptr<Pass> contact;
-    if (req.contact_pass && scene.sun && scene.contact.step_count > 0)
+    if (req.contact_pass && primary_light_slot(scene) >= 0 && scene.contact.step_count > 0)
       contact = std::make_unique<ContactPass>(res);
-    auto forward = std::make_unique<ForwardPass>(res, shadow_maps.get());
+    auto forward = std::make_unique<ForwardPass>(res);
     auto tonemap = std::make_unique<TonemapPass>(res);
     passes.push_back(std::move(prepass));
     if (resolve) passes.push_back(std::move(resolve));
+    if (local_resolve) passes.push_back(std::move(local_resolve));
     if (contact) passes.push_back(std::move(contact));
     passes.push_back(std::move(forward));
     passes.push_back(std::move(tonemap));

@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <cstdlib>
 #include <fstream>
 #include <list>
 #include <map>
@@ -586,6 +587,10 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
 }
 
 std::filesystem::path default_shader_dir() {
+  // PENUMBRA_SHADER_DIR in the environment points every tool at another shader tree (a snapshot
+  // to measure against while the repository's tree is being edited, or an installed copy).
+  if (const char* dir = std::getenv("PENUMBRA_SHADER_DIR"); dir != nullptr && *dir != '\0')
+    return dir;
   return PENUMBRA_SHADER_DIR;
 }
 

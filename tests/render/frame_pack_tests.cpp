@@ -118,17 +118,21 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   scene::set_param(s, "shadows.normal_offset_texels", "0.75");
   scene::set_param(s, "shadows.slope_bias", "3");
   scene::set_param(s, "shadows.constant_bias", "0.001");
+  scene::set_param(s, "shadows.max_slope_bias", "6");
+  scene::set_param(s, "shadows.pcss_search_texels", "20");
+  scene::set_param(s, "shadows.pcss_min_filter_texels", "0.75");
+  scene::set_param(s, "shadows.pcss_max_filter_texels", "24");
   scene::set_param(s, "render.view", "penumbra");
   scene::set_param(s, "render.exposure", "2");
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
   EXPECT_EQ(f.frame.mode.z, filter_index(scene::Filter::poisson));
   EXPECT_EQ(f.frame.mode.w, uint32_t(scene::DebugView::penumbra));
   EXPECT_EQ(f.frame.filter_params, glm::vec4(3.0f, 2.0f, 24.0f, 3.5f));
-  EXPECT_EQ(f.frame.pcss.x, 0.25f);
+  EXPECT_EQ(f.frame.pcss, glm::vec4(0.25f, 20.0f, 0.75f, 24.0f));
   EXPECT_EQ(f.frame.bias.x, 0.75f);
   EXPECT_EQ(f.frame.bias.y, 3.0f);
   EXPECT_EQ(f.frame.bias.z, 0.001f);
-  EXPECT_FLOAT_EQ(f.frame.bias.w, 0.02f);  // the clamp: 20x the constant bias
+  EXPECT_EQ(f.frame.bias.w, 6.0f);
   EXPECT_EQ(f.frame.ambient.w, 2.0f);
   EXPECT_EQ(f.frame.sun_color.w, 1.0f);
   EXPECT_FLOAT_EQ(f.frame.sun_direction.w, 2.5f);
@@ -164,7 +168,12 @@ TEST(PackFrame, PcssClampsAndCascadeKeysReachTheShadowBlock) {
 
 TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
   scene::Scene s = parse(kScene);
+  s.spots[0].radius = 0.125f;
+  s.points[0].radius = 0.25f;
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
+  // The sphere lights' radii reach the local resolve's PCSS.
+  EXPECT_EQ(f.frame.spots[0].params.z, 0.125f);
+  EXPECT_EQ(f.frame.points[0].params.z, 0.25f);
   // Three spots declared, kMaxSpotLights (2) packed; the second casts no shadow.
   EXPECT_EQ(f.frame.counts.x, uint32_t(kMaxSpotLights));
   EXPECT_EQ(f.frame.counts.y, 1u);

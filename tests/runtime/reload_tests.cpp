@@ -135,8 +135,7 @@ TEST_F(ReloadTest, ABrokenEditKeepsTheImageAndNamesTheIncludedFileAndLine) {
   const auto rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec);
   EXPECT_TRUE(rec->result.rebuilt.empty());
-  EXPECT_EQ(short_names(rec->result.failed),
-            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  EXPECT_EQ(short_names(rec->result.failed), (std::vector<std::string>{"shadow-resolve"}));
   // The error is in pcf.glsl (included by shadow.glsl, included by shadow_resolve.comp), at
   // the line edited — not at a line of the expanded source.
   const std::string where = shader("penumbra/pcf.glsl").string() + ":" + std::to_string(line) + ":";
@@ -160,8 +159,7 @@ TEST_F(ReloadTest, TheFixAfterABrokenEditGivesTheImageOfAColdStart) {
   const auto rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec);
   EXPECT_TRUE(rec->result.ok()) << s->error_text();
-  EXPECT_EQ(short_names(rec->result.rebuilt),
-            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  EXPECT_EQ(short_names(rec->result.rebuilt), (std::vector<std::string>{"shadow-resolve"}));
   EXPECT_TRUE(s->errors().empty()) << "a good edit clears the error: " << s->error_text();
   const auto fixed = s->pixels();
   EXPECT_GT(differing_pixels(original, fixed), 0u);
@@ -226,18 +224,19 @@ INSTANTIATE_TEST_SUITE_P(
                     "penumbra/material.glsl",
                     {"forward-masked", "forward-opaque", "prepass-masked", "prepass-opaque",
                      "sun-shadow-masked"}},
-        IncludeCase{
-            "default", "penumbra/pcf.glsl", {"forward-masked", "forward-opaque", "shadow-resolve"}},
-        IncludeCase{"default",
-                    "penumbra/noise.glsl",
-                    {"contact-shadows", "forward-masked", "forward-opaque", "shadow-resolve"}},
+        // The shadow filters are resolved in compute: lighting does not read them.
+        IncludeCase{"default", "penumbra/pcf.glsl", {"shadow-resolve"}},
+        IncludeCase{"default", "penumbra/noise.glsl", {"contact-shadows", "shadow-resolve"}},
         IncludeCase{"default", "penumbra/vsm.glsl", {"shadow-resolve"}},
         IncludeCase{"default", "contact_shadows.comp", {"contact-shadows"}},
         IncludeCase{"default", "render/tonemap.comp", {"tonemap"}},
         IncludeCase{"indoor",
                     "penumbra/material.glsl",
                     {"forward-masked", "forward-opaque", "point-shadow-cube", "prepass-masked",
-                     "prepass-opaque", "spot-shadow-masked"}}),
+                     "prepass-opaque", "spot-shadow-masked"}},
+        // Spot and point lights go through the local resolve: no sun, so no shadow-resolve.
+        IncludeCase{"indoor", "penumbra/pcf.glsl", {"local-shadow-resolve"}},
+        IncludeCase{"indoor", "penumbra/local_shadow.glsl", {"local-shadow-resolve"}}),
     [](const ::testing::TestParamInfo<IncludeCase>& i) {
       std::string n = i.param.scene + "_" + i.param.file;
       for (char& ch : n)
@@ -254,8 +253,7 @@ TEST_F(ReloadTest, AnAtomicRenameSaveTriggersTheReload) {
   const auto rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec) << "the rename over the original was not seen";
   EXPECT_THAT(rec->changed, ::testing::Contains(file));
-  EXPECT_EQ(short_names(rec->result.rebuilt),
-            (std::vector<std::string>{"forward-masked", "forward-opaque", "shadow-resolve"}));
+  EXPECT_EQ(short_names(rec->result.rebuilt), (std::vector<std::string>{"shadow-resolve"}));
   EXPECT_GT(differing_pixels(before, s->pixels()), 0u);
 }
 

@@ -78,7 +78,7 @@ TEST(ScriptEndToEnd, SetsRendersScreenshotsAndReloadsWithoutValidationMessages) 
                           "\n"
                           "replace penumbra/pcf.glsl \"kPcfMaxRadius) +;\" \"kPcfMaxRadius);\"\n"
                           "expect_reload_ok\n"
-                          "expect_rebuilt shadow-resolve forward-opaque forward-masked\n"
+                          "expect_rebuilt shadow-resolve\n"
                           "screenshot " +
                           c.string() +
                           "\n"

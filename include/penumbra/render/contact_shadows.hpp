@@ -25,6 +25,7 @@
 #include <filesystem>
 #include <glm/glm.hpp>
 #include <memory>
+#include <optional>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
@@ -43,7 +44,9 @@ inline constexpr std::uint32_t kContactMaxSteps = scene::kMaxContactSteps;
 // under std140, std430 and C++; tests/render/contact_pass_tests.cpp checks every offset against
 // SPIR-V reflection.
 struct alignas(16) ContactShadowGpu {
-  glm::vec4 light_dir;          // xyz: unit direction towards the light (view space); w: 0
+  // w 0: xyz the unit direction towards a directional light (view space); w 1: xyz the
+  // position of a spot or point light (view space)
+  glm::vec4 light_dir;
   glm::vec2 extent;             // width, height in pixels
   float tan_half_fov_y = 1.0f;  // tan(vertical fov / 2)
   float aspect = 1.0f;          // width / height of the projection
@@ -112,6 +115,9 @@ struct ContactShadowFrame {
   ContactCamera camera;
   // Direction towards the light in the pass's view space; normalized by pack (non-zero).
   glm::dvec3 light_dir_view{0.0, 1.0, 0.0};
+  // A spot or point light instead: its position in the pass's view space (relative to the
+  // camera, in the basis of contact_view_basis); the march goes towards it.
+  std::optional<glm::dvec3> light_position_view;
   std::uint32_t frame = 0;  // selects the golden-ratio noise offset
 };
 

@@ -54,6 +54,11 @@ shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std:
 // Reverse-Z (or standard) perspective, Vulkan clip z in [0, 1], y flipped so +Y is up on screen.
 glm::mat4 camera_projection(const scene::Camera& camera, double aspect, bool reverse_z);
 
+// The light that contact shadows follow: the sun when the scene has one, else its first spot
+// light, else its first point light. Returns its visibility slot (0 the sun, 1 + i spot i,
+// 1 + kMaxSpotLights + i point i, as the forward pass numbers them), or -1 without any light.
+int primary_light_slot(const scene::Scene& scene);
+
 // The shader's filter constant (kFilterHard ...) of a scene filter.
 std::uint32_t filter_index(scene::Filter filter);
 

@@ -18,7 +18,7 @@ struct alignas(16) LightGpu {
   glm::vec4 position_range;   // xyz relative to the render origin; w: range (m)
   glm::vec4 direction_cos;    // spot: xyz axis (unit), w: cos(outer); point: 0
   glm::vec4 color_intensity;  // rgb, w: intensity
-  glm::vec4 params;           // x: cos(inner) (spot), y: shadow map index or -1, z, w: 0
+  glm::vec4 params;  // x: cos(inner) (spot), y: shadow map index or -1, z: radius (m), w: 0
 };
 static_assert(sizeof(LightGpu) == 64);
 
@@ -34,16 +34,22 @@ struct alignas(16) FrameGpu {
   glm::vec4 ambient;          // rgb sky ambient, w: exposure
   glm::vec4 viewport;         // width, height, 1 / width, 1 / height
   glm::vec4 projection;       // near, far, tan(fov_y / 2), aspect
-  glm::vec4 bias;             // normal offset (texels), slope scale, constant bias, max bias
-  glm::vec4 filter_params;    // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
+  // World-unit biases (shaders/penumbra/bias.glsl): x normal offset (texels at the receiver),
+  // y slope bias (texels), z constant bias (metres along the light), w slope bound (texels)
+  glm::vec4 bias;
+  glm::vec4 filter_params;  // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
   // x: frame index; y: depth convention (1 reverse-Z); z: filter (0 hard, 1 pcf, 2 pcss,
   // 3 poisson); w: debug view (0 lit, 1 shadow factor, 2 cascades, 3 contact mask, 4 texel
   // density, 5 penumbra)
   glm::uvec4 mode;
-  glm::uvec4 counts;  // x: spot lights, y: point lights, z: contact pass (0/1), w: 0
+  // x: spot lights, y: point lights, z: contact pass (0/1), w: the visibility slot the contact
+  // mask darkens (primary_light_slot: 0 sun, 1 + i spot i, 1 + kMaxSpotLights + i point i)
+  glm::uvec4 counts;
   LightGpu spots[kMaxSpotLights];
   LightGpu points[kMaxPointLights];
-  glm::vec4 pcss;  // x: confidence fraction (blocker-search taps that must hit), yzw: 0
+  // x: confidence fraction (blocker-search taps that must hit); y, z, w: the local lights' PCSS
+  // search radius, minimum and maximum filter radius (texels)
+  glm::vec4 pcss;
 };
 
 static_assert(offsetof(FrameGpu, view) == 0);

@@ -114,7 +114,8 @@ class Compiler {
 };
 
 // The shader tree (the stage files and the penumbra/ library) of the source tree Penumbra was
-// built from: the one definition every layer's default comes from.
+// built from, or $PENUMBRA_SHADER_DIR when that is set and not empty: the one definition every
+// layer's default comes from.
 std::filesystem::path default_shader_dir();
 
 }  // namespace penumbra::shader

@@ -1,4 +1,5 @@
-// Contact shadows toward the sun: ContactShadowPass (depth resolve + march) over the prepass's
+// Contact shadows toward the primary light (the sun, else the first spot, else the first point
+// light): ContactShadowPass (depth resolve + march) over the prepass's
 // depth and normals, into the contact mask. A shader edit gives the pass new pipelines; its mask
 // stays the same image, so the passes that sample it keep their descriptor sets.
 
@@ -40,7 +41,15 @@ void ContactPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mar
   const auto cam = frame_camera(r.scene, r.width, r.height);
   f.camera = ContactCamera::from(
       cam, r.reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard);
-  f.light_dir_view = to_contact_view(cam, -glm::dvec3(r.scene.sun->direction));
+  // The primary light (primary_light_slot): the sun's direction, or a spot or point light's
+  // position relative to the camera.
+  const int slot = primary_light_slot(r.scene);
+  if (slot == 0) {
+    f.light_dir_view = to_contact_view(cam, -glm::dvec3(r.scene.sun->direction));
+  } else {
+    const glm::vec3 p = slot == 1 ? r.scene.spots[0].position : r.scene.points[0].position;
+    f.light_position_view = to_contact_view(cam, glm::dvec3(p) - cam.position);
+  }
   f.frame = r.packed.frame.mode.x;
   pass_->record(cmd, r.depth, r.normal, f);
   mark("contact-shadows");

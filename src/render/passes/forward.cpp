@@ -1,25 +1,20 @@
 // The forward pass: every light with its shadows (the sun's from the shadow-info image, spots
-// and points from their maps, the contact mask), into the HDR image; with visibility_output it
-// also writes each light's visibility as the lighting used it (what the reference compares).
+// and points from the local-shadow image, the contact mask), into the HDR image; with
+// visibility_output it also writes each light's visibility as the lighting used it (what the
+// reference compares).
 
 #include "passes.hpp"
 
 namespace penumbra::render::passes {
 
-ForwardPass::ForwardPass(FrameResources& r, const ShadowMapPass* maps) {
+ForwardPass::ForwardPass(FrameResources& r) {
   const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
   const auto& req = r.req;
   std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}};
   if (req.sun_shadows) b.push_back({1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
   if (r.contact_mask) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
-  if (req.spot_shadow_maps) {
-    b.push_back({3, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
-    b.push_back({4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
-  }
-  if (req.point_shadow_cubes) {
-    b.push_back({5, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all});
-    b.push_back({6, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
-  }
+  const bool local = req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0;
+  if (local) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
   layout_ = std::make_unique<gpu::PipelineLayout>(
       r.ctx, std::vector<std::vector<gpu::BindingDesc>>{b}, uint32_t(sizeof(DrawPush)), all);
   auto defines = light_defines(r);
@@ -51,21 +46,13 @@ ForwardPass::ForwardPass(FrameResources& r, const ShadowMapPass* maps) {
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
   if (req.sun_shadows) w.combined_image(1, r.info.view(), r.nearest.handle());
   if (r.contact_mask) w.combined_image(2, r.contact_mask->view(), r.nearest.handle());
-  if (req.spot_shadow_maps) {
-    w.buffer(3, maps->spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
-    w.combined_image(4, maps->spot_maps.view(), r.shadow_compare.handle());
-  }
-  if (req.point_shadow_cubes) {
-    w.buffer(5, maps->point_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
-    w.combined_image(6, maps->point_cubes.view(), r.shadow_compare.handle());
-  }
+  if (local) w.combined_image(3, r.local_info.view(), r.nearest.handle());
   w.update(r.ctx, set_);
   r.report.passes.push_back("forward: lighting");
 }
 
 PassIo ForwardPass::io() const {
-  return {{"frame", "depth", "shadow-info", "contact-mask", "spot-shadow-map", "point-shadow-map"},
-          {"hdr", "visibility"}};
+  return {{"frame", "depth", "shadow-info", "contact-mask", "local-shadow"}, {"hdr", "visibility"}};
 }
 
 void ForwardPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {

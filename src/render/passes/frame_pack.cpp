@@ -2,6 +2,7 @@
 // Pure: no device, no allocation of GPU objects; every position is made relative to the render
 // origin (the camera) in double before it is rounded to float.
 
+#include <algorithm>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <penumbra/render/frame_pack.hpp>
@@ -52,7 +53,7 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
     l.direction_cos =
         glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
     l.color_intensity = glm::vec4(s.color, s.intensity);
-    l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, 0, 0);
+    l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius, 0);
     if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
       shadow::SpotLight sl;
       sl.position = to_d(s.position);
@@ -73,7 +74,7 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
     LightGpu& l = out.frame.points[points++];
     l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
     l.color_intensity = glm::vec4(p.color, p.intensity);
-    l.params = glm::vec4(0, -1.0f, 0, 0);
+    l.params = glm::vec4(0, -1.0f, p.radius, 0);
     if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
       shadow::PointLight pl;
       pl.position = to_d(p.position);
@@ -86,7 +87,9 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
       l.params.y = float(point_maps_used++);
     }
   }
-  out.frame.counts = glm::uvec4(spots, points, caps.contact_pass ? 1u : 0u, 0u);
+  const int primary = primary_light_slot(scene);
+  out.frame.counts = glm::uvec4(spots, points, caps.contact_pass && primary >= 0 ? 1u : 0u,
+                                uint32_t(std::max(primary, 0)));
 }
 
 void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const FrameCaps& caps,
@@ -163,6 +166,13 @@ shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std:
   return sc;
 }
 
+int primary_light_slot(const scene::Scene& scene) {
+  if (scene.sun) return 0;
+  if (!scene.spots.empty()) return 1;
+  if (!scene.points.empty()) return 1 + int(kMaxSpotLights);
+  return -1;
+}
+
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
                        const FrameCaps& caps, std::uint32_t frame_index) {
   PackedFrame out;
@@ -185,12 +195,15 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   frame.projection =
       glm::vec4(c.near, c.far, std::tan(glm::radians(c.fov_y_degrees) * 0.5f), float(aspect));
   const auto& sh = scene.shadows;
+  // World-unit biases (bias.glsl): x normal offset, texels; y slope bias, texels; z constant
+  // bias, metres along the light; w the slope term's bound, texels.
   frame.bias =
-      glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.constant_bias * 20.0f);
+      glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.max_slope_bias);
   frame.filter_params =
       glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
                 std::max(1.0f, float(sh.pcf_radius) + 0.5f));
-  frame.pcss = glm::vec4(sh.pcss_confidence, 0.0f, 0.0f, 0.0f);
+  frame.pcss = glm::vec4(sh.pcss_confidence, sh.pcss_search_texels, sh.pcss_min_filter_texels,
+                         sh.pcss_max_filter_texels);
   frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
                           uint32_t(scene.render.view));
   frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);

@@ -51,7 +51,8 @@ struct FrameResources {
   gpu::Buffer frame_ubo;
   // Screen-sized images: depth and view-space normals (prepass), the sun's shadow info (shadow
   // resolve), the lit HDR colour and per-light visibility (forward), the output (tonemap).
-  gpu::Image depth, normal, info, hdr, ldr;
+  // The local lights' visibility (local shadow resolve), one channel per light.
+  gpu::Image depth, normal, info, local_info, hdr, ldr;
   gpu::Image visibility[2];
   gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
   gpu::Sampler nearest, shadow_compare, raw_depth;
@@ -142,6 +143,20 @@ class ShadowResolvePass final : public Pass {
   VkDescriptorSet set_ = VK_NULL_HANDLE;
 };
 
+// Spot and point lights: biases and the filter, per pixel and light, into the local-shadow image
+// (spot 0, spot 1, point 0, point 1).
+class LocalShadowResolvePass final : public Pass {
+ public:
+  LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::ComputePipeline> pipeline_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
 // Screen-space contact shadows toward the sun (ContactShadowPass), into the contact mask.
 class ContactPass final : public Pass {
  public:
@@ -156,7 +171,7 @@ class ContactPass final : public Pass {
 // Lighting: every light with its shadows, into the HDR image (and the visibility targets).
 class ForwardPass final : public Pass {
  public:
-  ForwardPass(FrameResources& r, const ShadowMapPass* maps);
+  explicit ForwardPass(FrameResources& r);
   PassIo io() const override;
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
 

@@ -1,0 +1,144 @@
+#version 460
+// Spot and point light shadow resolve: per pixel and per shadowed local light, the world-unit
+// biases and the configured filter (hard, PCF, Poisson, PCSS), through the library in
+// penumbra/bias.glsl and penumbra/local_shadow.glsl, like the sun's resolve. Output rgba16f:
+// the visibility of spot 0, spot 1, point 0, point 1 (1: lit, or a light without a shadow map;
+// 0 where the surface faces away from the light).
+#include "penumbra/frame_types.glsl"
+#include "penumbra/shadow_types.glsl"
+#include "penumbra/bias.glsl"
+#include "penumbra/cascade.glsl"
+#include "penumbra/local_shadow.glsl"
+#include "penumbra/noise.glsl"
+
+#ifndef PENUMBRA_SPOT_SHADOWS
+#define PENUMBRA_SPOT_SHADOWS 0
+#endif
+#ifndef PENUMBRA_POINT_SHADOWS
+#define PENUMBRA_POINT_SHADOWS 0
+#endif
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+layout(set = 0, binding = 1) uniform sampler2D scene_depth;   // nearest
+layout(set = 0, binding = 2) uniform sampler2D scene_normal;  // nearest, view space
+#if PENUMBRA_SPOT_SHADOWS > 0
+layout(set = 0, binding = 3) uniform SpotBlock { SpotShadowGpu spot_shadows[kMaxSpotLights]; };
+layout(set = 0, binding = 4) uniform sampler2DArrayShadow spot_compare;  // linear compare
+layout(set = 0, binding = 5) uniform sampler2DArray spot_depth;          // nearest raw
+#endif
+#if PENUMBRA_POINT_SHADOWS > 0
+layout(set = 0, binding = 6) uniform PointBlock { PointShadowGpu point_shadows[kMaxPointLights]; };
+layout(set = 0, binding = 7) uniform samplerCubeArrayShadow point_compare;  // linear compare
+layout(set = 0, binding = 8) uniform samplerCubeArray point_depth;          // nearest raw
+#endif
+layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D local_shadow;
+
+PcssLocalParams local_params(float radius, float texel_at_unit, float near, float far) {
+  PcssLocalParams p;
+  p.light_radius = radius;
+  p.texel_at_unit = texel_at_unit;
+  p.near = near;
+  p.far = far;
+  p.max_search_texels = frame.pcss.y;
+  p.min_filter_texels = frame.pcss.z;
+  p.max_filter_texels = frame.pcss.w;
+  p.confidence_fraction = frame.pcss.x;
+  return p;
+}
+
+#if PENUMBRA_SPOT_SHADOWS > 0
+float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, float rotation) {
+  vec3 d = light.position_range.xyz - p;
+  float dist = length(d);
+  vec3 l = d / max(dist, 1e-6);
+  float n_dot_l = dot(n, l);
+  if (!(n_dot_l > 0.0)) return 0.0;
+  float axial = dot(p - s.position_near.xyz, s.direction_far.xyz);
+  float texel_world = perspective_texel_world_size(s.params.z, axial);
+  vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
+  float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
+  q = bias_toward_light(q, l, min(bias, 0.5 * dist));
+  vec3 coord = world_to_shadow_coord(s.view_proj, q);
+  bool reverse_z = s.info.y == 1u;
+  vec2 texel = vec2(1.0 / float(s.info.x));
+  uint filter_mode = frame.mode.z;
+  if (filter_mode == kFilterHard) return pcf_grid_array(spot_compare, coord, map, 0, texel);
+  if (filter_mode == kFilterPcf)
+    return pcf_grid_array(spot_compare, coord, map, int(frame.filter_params.x), texel);
+  if (filter_mode == kFilterPoisson)
+    return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
+                             frame.filter_params.w, rotation, texel);
+  PcssLocalParams params =
+      local_params(light.params.z, s.params.z, s.position_near.w, s.direction_far.w);
+  float receiver_distance = dot(q - s.position_near.xyz, s.direction_far.xyz);
+  return pcss_spot_shadow_array(spot_compare, spot_depth, coord, map, texel, receiver_distance,
+                                params, int(frame.filter_params.y), rotation, reverse_z);
+}
+#endif
+
+#if PENUMBRA_POINT_SHADOWS > 0
+float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n, float rotation) {
+  vec3 d = light.position_range.xyz - p;
+  float dist = length(d);
+  vec3 l = d / max(dist, 1e-6);
+  float n_dot_l = dot(n, l);
+  if (!(n_dot_l > 0.0)) return 0.0;
+  float resolution = float(s.info.z);
+  float texel_world = cube_texel_world_size(p - s.position.xyz, resolution);
+  vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
+  float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
+  q = bias_toward_light(q, l, min(bias, 0.5 * dist));
+  vec3 v = q - s.position.xyz;
+  float receiver_distance = length(v);
+  bool reverse_z = s.info.y == 1u;
+  float ref = cube_compare_depth(receiver_distance, s.depth_range.x, s.depth_range.z, reverse_z);
+  uint filter_mode = frame.mode.z;
+  if (filter_mode == kFilterHard) return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
+  if (filter_mode == kFilterPcf)
+    return pcf_cube_array(point_compare, v, map, ref, int(frame.filter_params.x), resolution);
+  if (filter_mode == kFilterPoisson)
+    return pcf_cube_vogel_array(point_compare, v, map, ref, int(frame.filter_params.z),
+                                frame.filter_params.w, rotation, resolution);
+  PcssLocalParams params =
+      local_params(light.params.z, 2.0 / resolution, s.depth_range.x, s.depth_range.y);
+  return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
+                                resolution, params, int(frame.filter_params.y), rotation,
+                                reverse_z);
+}
+#endif
+
+void main() {
+  ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
+  ivec2 size = ivec2(frame.viewport.xy);
+  if (any(greaterThanEqual(pixel, size))) return;
+  vec4 visibility = vec4(1.0);
+  vec4 nrm = texelFetch(scene_normal, pixel, 0);
+  if (nrm.a == 0.0) {  // sky
+    imageStore(local_shadow, pixel, visibility);
+    return;
+  }
+  float depth = texelFetch(scene_depth, pixel, 0).r;
+  vec2 uv = (vec2(pixel) + 0.5) * frame.viewport.zw;
+  vec4 h = frame.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
+  vec3 p = h.xyz / h.w;
+  vec3 n = normalize(transpose(mat3(frame.view)) * nrm.xyz);
+  float rotation = 6.2831853 * interleaved_gradient_noise_temporal(vec2(pixel), frame.mode.x);
+#if PENUMBRA_SPOT_SHADOWS > 0
+  for (int i = 0; i < int(frame.counts.x); ++i) {
+    int map = int(frame.spots[i].params.y);
+    if (map >= 0)
+      visibility[i] = spot_visibility(frame.spots[i], spot_shadows[map], map, p, n, rotation);
+  }
+#endif
+#if PENUMBRA_POINT_SHADOWS > 0
+  for (int i = 0; i < int(frame.counts.y); ++i) {
+    int map = int(frame.points[i].params.y);
+    if (map >= 0)
+      visibility[kMaxSpotLights + i] =
+          point_visibility(frame.points[i], point_shadows[map], map, p, n, rotation);
+  }
+#endif
+  imageStore(local_shadow, pixel, visibility);
+}
