@@ -1,6 +1,6 @@
 // The reference against the GPU: the alpha mask it evaluates is the shaders' mask; with a hard
 // light and a fine shadow map it agrees with the rasterizer away from shadow edges; every
-// shipped scene measures to finite metrics and images; bad frames give defined results.
+// shipped scene meets its accuracy budget and writes its images; bad frames give defined results.
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -42,7 +42,7 @@ double edge_distance(glm::vec2 uv, scene::MaskPattern pattern, glm::vec2 scale) 
 
 TEST_F(ReferenceGpu, TheTracersMaskIsTheShadersMask) {
   testing::ShaderFunction<float(glm::vec2, int32_t, glm::vec2)> mask("penumbra/material.glsl",
-                                                                      "procedural_mask");
+                                                                     "procedural_mask");
   testing::Rng rng(0x3A5C);
   const std::vector<glm::vec2> scales{{1, 1}, {16, 1}, {16, 4}, {8, 12}, {400, 1}, {3.3f, 7.1f}};
   std::vector<std::tuple<glm::vec2, int32_t, glm::vec2>> cases;
@@ -137,7 +137,8 @@ std::vector<uint8_t> interior(const LightMeasurement& l, uint32_t w, uint32_t h,
       for (int dy = -k; dy <= k && uniform; ++dy)
         for (int dx = -k; dx <= k && uniform; ++dx) {
           const size_t j = size_t(y + dy) * w + size_t(x + dx);
-          uniform = l.classes[j] == ReceiverClass::lit && l.reference.value[j] == l.reference.value[i];
+          uniform =
+              l.classes[j] == ReceiverClass::lit && l.reference.value[j] == l.reference.value[i];
         }
       out[i] = uniform;
     }
@@ -180,10 +181,49 @@ TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
 class ShippedSceneReference : public ReferenceGpu,
                               public ::testing::WithParamInterface<std::string> {};
 
-TEST_P(ShippedSceneReference, MeasuresToFiniteMetricsAndWritesTheImages) {
+// Every shipped scene at its defaults, measured at 640x360 (a quarter of the 1280x720 that
+// docs/accuracy.md reports; the metrics agree within 0.2 percentage points between the two
+// sizes) against the reference, and held to the accuracy budget of issue 13:
+// - soft lights: mean |dV| <= 0.02; hard lights: misclassified <= 0.5% of the receivers;
+// - false light <= 1% and false shadow <= 1% (t = 0.1);
+// - no lost shadows: of the receivers the reference finds in umbra (R < 0.5), at least 90% are
+//   shadowed (V < 0.5) on the GPU. Before the world-unit biases the indoor spot light kept 18%
+//   of its umbra, the space point light 66%.
+// The bounds sit 1.5-10x above the measured values (docs/accuracy.md lists them): far enough for
+// the different rounding of another driver, near enough that a lost shadow (the indoor spot's
+// 7.9% false light before the fix) or acne fails.
+// The space scene is the exception. Its false light (3.6%) and misclassification (3.4%) are
+// the shadow terminator of its low-poly asteroids: the reference sees the facets shadow each
+// other where the interpolated normal still faces the light, at n.l near 0, where the image
+// shows almost nothing (the n.l-weighted mean is 0.0064). Shadow-map biases cannot reproduce
+// that self-shadowing without acne; its bounds hold today's values as a regression guard
+// (4% each, n.l-weighted mean <= 0.01, umbra kept >= 60% against 68% measured) until the
+// renderer models it. The default scene keeps 72% of its umbra (grazing 96%, indoor 98%): the
+// rest is the 3 cm alpha-masked fence, whose stripes the reference resolves and its 2048-texel
+// cascades do not, and the ball's terminator. Its bound (65%) guards that value; the fence is
+// open work in issue 13.
+struct Budget {
+  double false_light = 0.01, false_shadow = 0.01, misclassified = 0.005, mean = 0.02;
+  double nl_mean = 1.0, umbra_kept = 0.9;
+};
+
+Budget budget_of(const std::string& scene) {
+  Budget b;
+  if (scene == "default") b.umbra_kept = 0.65;  // 0.72 measured: see above
+  if (scene == "space") {
+    b.umbra_kept = 0.6;  // 0.68 measured
+    b.false_light = 0.04;
+    b.misclassified = 0.04;
+    b.mean = 0.05;
+    b.nl_mean = 0.01;
+  }
+  return b;
+}
+
+TEST_P(ShippedSceneReference, MeetsTheAccuracyBudgetAndWritesTheImages) {
   scene::Scene s = scene::load_scene(scene::find_scene(GetParam()));
-  s.render.width = 256;
-  s.render.height = 144;
+  s.render.width = 640;
+  s.render.height = 360;
   render::RendererOptions ro;
   ro.visibility_output = true;
   render::Renderer r(ctx(), s, ro);
@@ -192,16 +232,33 @@ TEST_P(ShippedSceneReference, MeasuresToFiniteMetricsAndWritesTheImages) {
   mo.trace.samples = 64;
   const FrameMeasurement m = measure_frame(r, mo);
   ASSERT_FALSE(m.lights.empty());
+  const Budget b = budget_of(GetParam());
   uint64_t receivers = 0;
   for (const auto& l : m.lights) {
-    SCOPED_TRACE(l.light.name());
+    SCOPED_TRACE(l.light.name() + ": " + l.metrics.to_line());
     receivers += l.metrics.receivers;
     for (double x : {l.metrics.mean_abs, l.metrics.rmse, l.metrics.p99_abs, l.metrics.false_light,
                      l.metrics.false_shadow})
       EXPECT_TRUE(std::isfinite(x) && x >= 0.0 && x <= 1.0) << x;
     EXPECT_EQ(std::isfinite(l.metrics.misclassified), l.area.hard());
+    EXPECT_LE(l.metrics.false_light, b.false_light);
+    EXPECT_LE(l.metrics.false_shadow, b.false_shadow);
+    if (l.area.hard())
+      EXPECT_LE(l.metrics.misclassified, b.misclassified);
+    else
+      EXPECT_LE(l.metrics.mean_abs, b.mean);
+    EXPECT_LE(l.metrics.mean_abs_lit, b.nl_mean);
+    size_t umbra = 0, kept = 0;
+    for (size_t i = 0; i < l.classes.size(); ++i) {
+      if (l.classes[i] != ReceiverClass::lit || !(l.reference.value[i] < 0.5f)) continue;
+      ++umbra;
+      kept += l.gpu[i] < 0.5f;
+    }
+    ASSERT_GT(umbra, 100u) << "no shadow to keep";
+    EXPECT_GE(double(kept) / double(umbra), b.umbra_kept)
+        << kept << " of " << umbra << " umbra receivers are shadowed on the GPU";
   }
-  EXPECT_GT(receivers, 1000u);
+  EXPECT_GT(receivers, 10000u);
   const fs::path dir = fs::temp_directory_path() /
                        ("penumbra-reference-" + GetParam() + "-" + std::to_string(::getpid()));
   const auto files = write_measurement(m, dir, "\"scene\": \"" + GetParam() + "\"");
