@@ -193,6 +193,36 @@ float pcf_cube_vogel_array(samplerCubeArrayShadow map, vec3 dir, int layer, floa
   return pcf_saturate_or_lit(sum / float(n));
 }
 
+// Blocker search of a cube (layer `layer`): tap_count (clamped to 1..64) raw depths, nearest, on
+// a Vogel disk of radius_texels texels perpendicular to dir, rotated by `rotation`. Returns in
+// blocker_count how many are strictly closer to the light than ref (clamped to [0, 1]) and in
+// average_depth their mean stored depth (ref when there is none). An invalid dir finds none.
+void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, float ref,
+                              float radius_texels, int tap_count, float rotation,
+                              float resolution, bool reverse_z, out float average_depth,
+                              out int blocker_count) {
+  float receiver = clamp(ref, 0.0, 1.0);
+  average_depth = penumbra_is_finite(receiver) ? receiver : 0.0;
+  blocker_count = 0;
+  if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return;
+  int n = clamp(tap_count, 1, kPcssMaxSearchTaps);
+  vec3 t, b;
+  cube_tangent_basis(dir, t, b);
+  vec3 a = abs(dir);
+  float step = 2.0 * max(max(a.x, a.y), a.z) / resolution * pcf_safe_radius(radius_texels);
+  float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
+  float sum = 0.0;
+  for (int i = 0; i < n; ++i) {
+    vec2 o = vogel_disk_sample(i, n, angle) * step;
+    float stored = textureLod(depth_map, vec4(dir + o.x * t + o.y * b, float(layer)), 0.0).r;
+    if (pcss_is_blocker(stored, receiver, reverse_z)) {
+      sum += stored;
+      ++blocker_count;
+    }
+  }
+  if (blocker_count > 0) average_depth = sum / float(blocker_count);
+}
+
 // Returns the PCSS shadow factor of a point light's cube (layer `layer`): dir from the light to
 // the (biased) receiver, receiver_distance = length(dir), ref = cube_compare_depth of it. The
 // blocker search reads tap_count raw depths (nearest) on a Vogel disk of the search radius;
@@ -204,25 +234,14 @@ float pcss_cube_shadow_array(samplerCubeArrayShadow compare_map, samplerCubeArra
   if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return 1.0;
   int search_taps = pcss_search_tap_count(tier);
   float search_radius = pcss_local_search_radius_texels(receiver_distance, params);
-  vec3 t, b;
-  cube_tangent_basis(dir, t, b);
-  vec3 a = abs(dir);
-  float step = 2.0 * max(max(a.x, a.y), a.z) / resolution;
   float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float receiver = clamp(ref, 0.0, 1.0);
-  float sum = 0.0;
-  int blockers = 0;
-  for (int i = 0; i < search_taps; ++i) {
-    vec2 o = vogel_disk_sample(i, search_taps, angle) * (search_radius * step);
-    float stored = textureLod(depth_map, vec4(dir + o.x * t + o.y * b, float(layer)), 0.0).r;
-    if (pcss_is_blocker(stored, receiver, reverse_z)) {
-      sum += stored;
-      ++blockers;
-    }
-  }
+  float blocker_depth;
+  int blockers;
+  pcss_cube_blocker_search(depth_map, dir, layer, receiver, search_radius, search_taps, angle,
+                           resolution, reverse_z, blocker_depth, blockers);
   if (blockers == 0) return 1.0;
-  float blocker_distance =
-      cube_stored_distance(sum / float(blockers), params.near, params.far, reverse_z);
+  float blocker_distance = cube_stored_distance(blocker_depth, params.near, params.far, reverse_z);
   float filter_radius = min(
       pcss_local_filter_radius_texels(receiver_distance, blocker_distance, params), search_radius);
   if (!pcss_needs_filter(blockers, search_taps, search_radius, filter_radius)) return 0.0;

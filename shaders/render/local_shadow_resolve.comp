@@ -3,7 +3,10 @@
 // biases and the configured filter (hard, PCF, Poisson, PCSS), through the library in
 // penumbra/bias.glsl and penumbra/local_shadow.glsl, like the sun's resolve. Output rgba16f:
 // the visibility of spot 0, spot 1, point 0, point 1 (1: lit, or a light without a shadow map;
-// 0 where the surface faces away from the light).
+// 0 where the surface faces away from the light). A second rgba16f image carries the debug
+// views' data of the primary shadowed local light (the first shadowed spot, else the first
+// shadowed point light): x the map (0 spot, 1-6 cube face +X..-Z, -1 none), y shadow-map texels
+// per screen pixel, z the PCSS penumbra width in texels (penumbra view only; -1 facing away).
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/bias.glsl"
@@ -34,6 +37,7 @@ layout(set = 0, binding = 7) uniform samplerCubeArrayShadow point_compare;  // l
 layout(set = 0, binding = 8) uniform samplerCubeArray point_depth;          // nearest raw
 #endif
 layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D local_shadow;
+layout(set = 0, binding = 10, rgba16f) uniform writeonly image2D local_debug;
 
 PcssLocalParams local_params(float radius, float texel_at_unit, float near, float far) {
   PcssLocalParams p;
@@ -49,20 +53,38 @@ PcssLocalParams local_params(float radius, float texel_at_unit, float near, floa
 }
 
 #if PENUMBRA_SPOT_SHADOWS > 0
-float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, float rotation) {
+float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, float rotation,
+                      inout vec4 debug) {
   vec3 d = light.position_range.xyz - p;
   float dist = length(d);
   vec3 l = d / max(dist, 1e-6);
   float n_dot_l = dot(n, l);
-  if (!(n_dot_l > 0.0)) return 0.0;
   float axial = dot(p - s.position_near.xyz, s.direction_far.xyz);
   float texel_world = perspective_texel_world_size(s.params.z, axial);
+  debug = vec4(0.0, texel_world, n_dot_l > 0.0 ? 0.0 : -1.0, 1.0);
+  if (!(n_dot_l > 0.0)) return 0.0;
   vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
   float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
   q = bias_toward_light(q, l, min(bias, 0.5 * dist));
   vec3 coord = world_to_shadow_coord(s.view_proj, q);
   bool reverse_z = s.info.y == 1u;
   vec2 texel = vec2(1.0 / float(s.info.x));
+  PcssLocalParams params =
+      local_params(light.params.z, s.params.z, s.position_near.w, s.direction_far.w);
+  float receiver_distance = dot(q - s.position_near.xyz, s.direction_far.xyz);
+  if (frame.mode.w == kViewPenumbra) {  // the PCSS estimate whatever the filter
+    float average;
+    int blockers;
+    pcss_blocker_search_array(spot_depth, coord, map,
+                              pcss_local_search_radius_texels(receiver_distance, params),
+                              pcss_search_tap_count(int(frame.filter_params.y)), rotation, texel,
+                              reverse_z, average, blockers);
+    PcssLocalParams wide = params;
+    wide.min_filter_texels = 0.0;
+    wide.max_filter_texels = 1e30;
+    float zb = linearize_depth(average, params.near, params.far, reverse_z);
+    if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
+  }
   uint filter_mode = frame.mode.z;
   if (filter_mode == kFilterHard) return pcf_grid_array(spot_compare, coord, map, 0, texel);
   if (filter_mode == kFilterPcf)
@@ -70,23 +92,31 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   if (filter_mode == kFilterPoisson)
     return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
                              frame.filter_params.w, rotation, texel);
-  PcssLocalParams params =
-      local_params(light.params.z, s.params.z, s.position_near.w, s.direction_far.w);
-  float receiver_distance = dot(q - s.position_near.xyz, s.direction_far.xyz);
   return pcss_spot_shadow_array(spot_compare, spot_depth, coord, map, texel, receiver_distance,
                                 params, int(frame.filter_params.y), rotation, reverse_z);
 }
 #endif
 
 #if PENUMBRA_POINT_SHADOWS > 0
-float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n, float rotation) {
+// The cube face a light-to-receiver direction selects (+X, -X, +Y, -Y, +Z, -Z: 0..5).
+float cube_face_of(vec3 v) {
+  vec3 a = abs(v);
+  if (a.z >= a.x && a.z >= a.y) return v.z < 0.0 ? 5.0 : 4.0;
+  if (a.y >= a.x) return v.y < 0.0 ? 3.0 : 2.0;
+  return v.x < 0.0 ? 1.0 : 0.0;
+}
+
+float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n, float rotation,
+                       inout vec4 debug) {
   vec3 d = light.position_range.xyz - p;
   float dist = length(d);
   vec3 l = d / max(dist, 1e-6);
   float n_dot_l = dot(n, l);
-  if (!(n_dot_l > 0.0)) return 0.0;
   float resolution = float(s.info.z);
   float texel_world = cube_texel_world_size(p - s.position.xyz, resolution);
+  debug = vec4(1.0 + cube_face_of(p - s.position.xyz), texel_world, n_dot_l > 0.0 ? 0.0 : -1.0,
+               1.0);
+  if (!(n_dot_l > 0.0)) return 0.0;
   vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
   float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
   q = bias_toward_light(q, l, min(bias, 0.5 * dist));
@@ -94,6 +124,21 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   float receiver_distance = length(v);
   bool reverse_z = s.info.y == 1u;
   float ref = cube_compare_depth(receiver_distance, s.depth_range.x, s.depth_range.z, reverse_z);
+  PcssLocalParams params =
+      local_params(light.params.z, 2.0 / resolution, s.depth_range.x, s.depth_range.y);
+  if (frame.mode.w == kViewPenumbra) {  // the PCSS estimate whatever the filter
+    float average;
+    int blockers;
+    pcss_cube_blocker_search(point_depth, v, map, ref,
+                             pcss_local_search_radius_texels(receiver_distance, params),
+                             pcss_search_tap_count(int(frame.filter_params.y)), rotation,
+                             resolution, reverse_z, average, blockers);
+    PcssLocalParams wide = params;
+    wide.min_filter_texels = 0.0;
+    wide.max_filter_texels = 1e30;
+    float zb = cube_stored_distance(average, params.near, params.far, reverse_z);
+    if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
+  }
   uint filter_mode = frame.mode.z;
   if (filter_mode == kFilterHard) return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
   if (filter_mode == kFilterPcf)
@@ -101,8 +146,6 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   if (filter_mode == kFilterPoisson)
     return pcf_cube_vogel_array(point_compare, v, map, ref, int(frame.filter_params.z),
                                 frame.filter_params.w, rotation, resolution);
-  PcssLocalParams params =
-      local_params(light.params.z, 2.0 / resolution, s.depth_range.x, s.depth_range.y);
   return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
                                 resolution, params, int(frame.filter_params.y), rotation,
                                 reverse_z);
@@ -117,6 +160,7 @@ void main() {
   vec4 nrm = texelFetch(scene_normal, pixel, 0);
   if (nrm.a == 0.0) {  // sky
     imageStore(local_shadow, pixel, visibility);
+    imageStore(local_debug, pixel, vec4(-1.0, 0.0, 0.0, 0.0));
     return;
   }
   float depth = texelFetch(scene_depth, pixel, 0).r;
@@ -125,20 +169,35 @@ void main() {
   vec3 p = h.xyz / h.w;
   vec3 n = normalize(transpose(mat3(frame.view)) * nrm.xyz);
   float rotation = 6.2831853 * interleaved_gradient_noise_temporal(vec2(pixel), frame.mode.x);
+  // The debug data of the first shadowed light (the spots come first); the rest's is dropped.
+  vec4 debug = vec4(-1.0, 0.0, 0.0, 0.0);
 #if PENUMBRA_SPOT_SHADOWS > 0
   for (int i = 0; i < int(frame.counts.x); ++i) {
     int map = int(frame.spots[i].params.y);
-    if (map >= 0)
-      visibility[i] = spot_visibility(frame.spots[i], spot_shadows[map], map, p, n, rotation);
+    if (map >= 0) {
+      bool first = debug.w == 0.0;
+      vec4 d = debug;
+      visibility[i] = spot_visibility(frame.spots[i], spot_shadows[map], map, p, n, rotation, d);
+      if (first) debug = d;
+    }
   }
 #endif
 #if PENUMBRA_POINT_SHADOWS > 0
   for (int i = 0; i < int(frame.counts.y); ++i) {
     int map = int(frame.points[i].params.y);
-    if (map >= 0)
+    if (map >= 0) {
+      bool first = debug.w == 0.0;
+      vec4 d = debug;
       visibility[kMaxSpotLights + i] =
-          point_visibility(frame.points[i], point_shadows[map], map, p, n, rotation);
+          point_visibility(frame.points[i], point_shadows[map], map, p, n, rotation, d);
+      if (first) debug = d;
+    }
   }
 #endif
+  // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.
+  float view_depth = dot(p - frame.camera_position.xyz, frame.camera_forward.xyz);
+  float pixel_world = view_depth * 2.0 * frame.projection.z * frame.viewport.w;
+  debug.y = debug.y > 0.0 ? pixel_world / debug.y : 0.0;
   imageStore(local_shadow, pixel, visibility);
+  imageStore(local_debug, pixel, debug);
 }

@@ -29,6 +29,9 @@ layout(set = 0, binding = 4, rgba8) uniform writeonly image2D ldr;
 #if PENUMBRA_SPOT_SHADOWS > 0 || PENUMBRA_POINT_SHADOWS > 0
 // The local lights' visibility (local_shadow_resolve.comp): spot 0, spot 1, point 0, point 1.
 layout(set = 0, binding = 5) uniform sampler2D local_shadow;
+// The primary shadowed local light's debug data: x map (0 spot, 1-6 cube face, -1 none),
+// y texels per pixel, z PCSS penumbra width (texels; -1 facing away).
+layout(set = 0, binding = 6) uniform sampler2D local_debug;
 #define PENUMBRA_LOCAL_SHADOWS 1
 #else
 #define PENUMBRA_LOCAL_SHADOWS 0
@@ -58,6 +61,11 @@ void main() {
   vec4 info = vec4(1.0, -1.0, 0.0, 0.0);
 #if PENUMBRA_SUN_SHADOWS
   info = texelFetch(shadow_info, pixel, 0);
+#elif PENUMBRA_LOCAL_SHADOWS
+  // No sun: the cascade, texel-density and penumbra views show the primary shadowed local light
+  // (its map, or cube face, in place of the cascade).
+  vec4 ld = texelFetch(local_debug, pixel, 0);
+  info = vec4(1.0, ld.x, ld.z, ld.y);
 #endif
   float contact = 1.0;
 #if PENUMBRA_CONTACT
@@ -73,7 +81,7 @@ void main() {
   if (view == kViewShadowFactor) out_rgb = vec3(info.r * local * contact);
   if (view == kViewCascades) {
     vec3 tint = info.g >= 0.0 ? kCascadeColors[int(info.g) & 7] : vec3(1.0);
-    out_rgb = mix(out_rgb, tint * (0.3 + 0.7 * info.r), 0.6);
+    out_rgb = mix(out_rgb, tint * (0.3 + 0.7 * info.r * local), 0.6);
   }
   if (view == kViewContactMask) out_rgb = vec3(contact);
   if (view == kViewTexelDensity) {

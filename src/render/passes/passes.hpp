@@ -51,8 +51,9 @@ struct FrameResources {
   gpu::Buffer frame_ubo;
   // Screen-sized images: depth and view-space normals (prepass), the sun's shadow info (shadow
   // resolve), the lit HDR colour and per-light visibility (forward), the output (tonemap).
-  // The local lights' visibility (local shadow resolve), one channel per light.
-  gpu::Image depth, normal, info, local_info, hdr, ldr;
+  // The local lights' visibility (local shadow resolve), one channel per light, and the debug
+  // views' data of the primary shadowed local light.
+  gpu::Image depth, normal, info, local_info, local_debug, hdr, ldr;
   gpu::Image visibility[2];
   gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
   gpu::Sampler nearest, shadow_compare, raw_depth;

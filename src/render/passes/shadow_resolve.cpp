@@ -55,12 +55,16 @@ void ShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mar
 LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps) {
   r.local_info = r.make_image("local-shadow", gpu::ImageKind::image_2d, kInfoFormat, r.width,
                               r.height, 1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
+  r.local_debug =
+      r.make_image("local-shadow-debug", gpu::ImageKind::image_2d, kInfoFormat, r.width, r.height,
+                   1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   const VkShaderStageFlags cs = VK_SHADER_STAGE_COMPUTE_BIT;
   const auto& req = r.req;
   std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs},
                                   {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
                                   {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                                  {9, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}};
+                                  {9, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs},
+                                  {10, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}};
   for (uint32_t first : {3u, 6u}) {
     if ((first == 3u ? req.spot_shadow_maps : req.point_shadow_cubes) == 0) continue;
     b.push_back({first, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs});
@@ -81,7 +85,8 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(1, r.depth.view(), r.nearest.handle())
       .combined_image(2, r.normal.view(), r.nearest.handle())
-      .storage_image(9, r.local_info.view());
+      .storage_image(9, r.local_info.view())
+      .storage_image(10, r.local_debug.view());
   if (req.spot_shadow_maps) {
     w.buffer(3, maps.spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
         .combined_image(4, maps.spot_maps.view(), r.shadow_compare.handle())
@@ -97,16 +102,19 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
 }
 
 PassIo LocalShadowResolvePass::io() const {
-  return {{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"}, {"local-shadow"}};
+  return {{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"},
+          {"local-shadow", "local-shadow-debug"}};
 }
 
 void LocalShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+  r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
                           nullptr);
   vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   mark("local-shadow-resolve");
 }
 

@@ -13,7 +13,10 @@ TonemapPass::TonemapPass(FrameResources& r) {
   if (r.req.sun_shadows) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
   if (r.contact_mask) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
   const bool local = r.req.spot_shadow_maps > 0 || r.req.point_shadow_cubes > 0;
-  if (local) b.push_back({5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
+  if (local) {
+    b.push_back({5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
+    b.push_back({6, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
+  }
   layout_ =
       std::make_unique<gpu::PipelineLayout>(r.ctx, std::vector<std::vector<gpu::BindingDesc>>{b});
   const auto defines = light_defines(r);
@@ -28,13 +31,17 @@ TonemapPass::TonemapPass(FrameResources& r) {
       .storage_image(4, r.ldr.view());
   if (r.req.sun_shadows) w.combined_image(2, r.info.view(), r.nearest.handle());
   if (r.contact_mask) w.combined_image(3, r.contact_mask->view(), r.nearest.handle());
-  if (local) w.combined_image(5, r.local_info.view(), r.nearest.handle());
+  if (local) {
+    w.combined_image(5, r.local_info.view(), r.nearest.handle());
+    w.combined_image(6, r.local_debug.view(), r.nearest.handle());
+  }
   w.update(r.ctx, set_);
   r.report.passes.push_back("tonemap: compute");
 }
 
 PassIo TonemapPass::io() const {
-  return {{"frame", "hdr", "shadow-info", "local-shadow", "contact-mask"}, {"ldr"}};
+  return {{"frame", "hdr", "shadow-info", "local-shadow", "local-shadow-debug", "contact-mask"},
+          {"ldr"}};
 }
 
 void TonemapPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
