@@ -33,6 +33,7 @@ struct FrameGpu {
   LightGpu spots[kMaxSpotLights];
   LightGpu points[kMaxPointLights];
   vec4 pcss;  // x: PCSS confidence fraction; y, z, w: local lights' PCSS search, min, max filter texels
+  vec4 filter_world;  // x: 1 keeps PCF / Poisson widths constant in world units across cascades
 };
 
 struct DrawPush {

@@ -55,6 +55,14 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
   uint filter_mode = frame.mode.z;
+  if (frame.filter_world.x != 0.0 && (filter_mode == kFilterPcf || filter_mode == kFilterPoisson)) {
+    // Constant width in world units: a Poisson disk whose radius is fixed in cascade 0's texels
+    // and so shrinks, in texels, in the coarser cascades.
+    float radius = filter_mode == kFilterPcf ? frame.filter_params.x + 0.5 : frame.filter_params.w;
+    radius *= shadow.cascades[0].params.x / texel_world;
+    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), radius,
+                             rotation, texel);
+  }
   if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
   if (filter_mode == kFilterPcf)
     return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);

@@ -119,6 +119,7 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   scene::set_param(s, "shadows.slope_bias", "3");
   scene::set_param(s, "shadows.constant_bias", "0.001");
   scene::set_param(s, "shadows.max_slope_bias", "6");
+  scene::set_param(s, "shadows.constant_filter_width", "true");
   scene::set_param(s, "shadows.pcss_search_texels", "20");
   scene::set_param(s, "shadows.pcss_min_filter_texels", "0.75");
   scene::set_param(s, "shadows.pcss_max_filter_texels", "24");
@@ -133,6 +134,7 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   EXPECT_EQ(f.frame.bias.y, 3.0f);
   EXPECT_EQ(f.frame.bias.z, 0.001f);
   EXPECT_EQ(f.frame.bias.w, 6.0f);
+  EXPECT_EQ(f.frame.filter_world.x, 1.0f);
   EXPECT_EQ(f.frame.ambient.w, 2.0f);
   EXPECT_EQ(f.frame.sun_color.w, 1.0f);
   EXPECT_FLOAT_EQ(f.frame.sun_direction.w, 2.5f);

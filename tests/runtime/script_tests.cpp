@@ -108,7 +108,7 @@ TEST(ScriptEndToEnd, AnErrorNamesTheScriptLineAndFails) {
   auto r = view("--script " + script.string());
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output,
-              HasSubstr("bad.txt:3: set shadows.pcf_radius 9: expected an integer in [0, 8]"));
+              HasSubstr("bad.txt:3: set shadows.pcf_radius 9: expected an integer in [0, 5]"));
 
   testing::write_text(script, "size 160x90\nrendr 2\n");
   r = view("--script " + script.string());

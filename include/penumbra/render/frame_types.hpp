@@ -50,6 +50,9 @@ struct alignas(16) FrameGpu {
   // x: confidence fraction (blocker-search taps that must hit); y, z, w: the local lights' PCSS
   // search radius, minimum and maximum filter radius (texels)
   glm::vec4 pcss;
+  // x: 1 when PCF and Poisson keep their width in world units across cascades
+  // (shadows.constant_filter_width), else 0; yzw: 0
+  glm::vec4 filter_world;
 };
 
 static_assert(offsetof(FrameGpu, view) == 0);
@@ -62,7 +65,8 @@ static_assert(offsetof(FrameGpu, counts) == 416);
 static_assert(offsetof(FrameGpu, spots) == 432);
 static_assert(offsetof(FrameGpu, points) == 560);
 static_assert(offsetof(FrameGpu, pcss) == 688);
-static_assert(sizeof(FrameGpu) == 704);
+static_assert(offsetof(FrameGpu, filter_world) == 704);
+static_assert(sizeof(FrameGpu) == 720);
 
 // Push constants of every geometry pass.
 struct alignas(16) DrawPush {

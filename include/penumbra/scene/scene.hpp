@@ -106,9 +106,11 @@ struct ShadowSettings {
   std::uint32_t resolution = kCascadeDefaults.resolution;
   CascadeFit fit = kCascadeDefaults.fit;
   bool snap_to_texels = kCascadeDefaults.snap_to_texels;  // cascades move by whole texels
-  int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 8]
-  int pcss_quality = 1;                                   // 0 low, 1 medium, 2 high
-  std::uint32_t poisson_taps = 16;                        // taps of the Poisson filter, in [1, 32]
+  int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 5]
+  // PCF and Poisson keep their world width across cascades (a disk sized in cascade 0's texels).
+  bool constant_filter_width = false;
+  int pcss_quality = 1;             // 0 low, 1 medium, 2 high
+  std::uint32_t poisson_taps = 16;  // taps of the Poisson filter, in [1, 32]
   float pcss_search_texels = float(kCascadeDefaults.pcss.blocker_search_texels);
   float pcss_min_filter_texels = float(kCascadeDefaults.pcss.min_filter_texels);
   float pcss_max_filter_texels = float(kCascadeDefaults.pcss.max_filter_texels);

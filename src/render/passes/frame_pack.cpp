@@ -202,6 +202,7 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   frame.filter_params =
       glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
                 std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+  frame.filter_world = glm::vec4(sh.constant_filter_width ? 1.0f : 0.0f, 0.0f, 0.0f, 0.0f);
   frame.pcss = glm::vec4(sh.pcss_confidence, sh.pcss_search_texels, sh.pcss_min_filter_texels,
                          sh.pcss_max_filter_texels);
   frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
