@@ -30,17 +30,13 @@ const Tolerance kSlopeTolerance = Tolerance::relative(32 * kU);
 
 class BiasExtremesTest : public GpuTest {};
 
-// Vectors no normalization can use: zero, signed zero, denormal (the squared length underflows),
-// tiny (squared length denormal, which a GPU may flush), overflowing (squared length +Inf), NaN,
-// infinite.
+// Vectors no normalization can use: zero, signed zero, denormal in every component (which a GPU
+// may flush to zero), NaN, infinite.
 const std::vector<glm::vec3> kDegenerate = {
     glm::vec3(0.0f),
     glm::vec3(-0.0f, 0.0f, -0.0f),
     glm::vec3(L::denorm_min(), 0.0f, 0.0f),
     glm::vec3(1e-40f, -1e-40f, 1e-40f),
-    glm::vec3(0.0f, 1e-20f, 0.0f),
-    glm::vec3(1e20f, 1e20f, 0.0f),
-    glm::vec3(L::max(), 0.0f, 0.0f),
     glm::vec3(kNaN, 0.0f, 1.0f),
     glm::vec3(0.0f, 0.0f, -kNaN),
     glm::vec3(kInf, 0.0f, 0.0f),
@@ -62,6 +58,32 @@ TEST_F(BiasExtremesTest, DegenerateNormalsGiveNoOffsetAndNeverNaN) {
               glm::dvec3(0.0))
         << "reference: " << format_tuple(cases[i]);
   }
+}
+
+// Normals and light directions of extreme but finite length, whose squared length under- or
+// overflows a float (1e-20, 1e20, FLT_MAX, a smallest normal component), give the offset of their
+// unit versions: the comment promises that neither needs to be unit length.
+TEST_F(BiasExtremesTest, ExtremeLengthsGiveTheOffsetOfTheUnitVector) {
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, float, float)> offset(kBias, "normal_offset");
+  const std::vector<glm::vec3> dirs = {
+      glm::vec3(0.0f, 1e-20f, 0.0f),   glm::vec3(1e20f, 1e20f, 0.0f),
+      glm::vec3(L::max(), 0.0f, 0.0f), glm::vec3(L::max(), L::max(), -L::max()),
+      glm::vec3(1e-30f, 2e-30f, 0.0f), glm::vec3(0.0f, 0.0f, -L::min())};
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, float>> cases;
+  std::vector<glm::vec3> want;
+  const glm::vec3 light(0.3f, 1.0f, -0.2f);
+  for (const glm::vec3& n : dirs) {
+    const glm::vec3 unit(glm::normalize(glm::dvec3(n)));  // double: no under- or overflow
+    cases.emplace_back(n, light, 0.05f, 1.5f);
+    want.push_back(glm::vec3(ref::normal_offset(unit, light, 0.05f, 1.5f)));
+    // The extreme vector as the light direction, under a generic normal.
+    cases.emplace_back(light, n, 0.05f, 1.5f);
+    want.push_back(glm::vec3(ref::normal_offset(light, unit, 0.05f, 1.5f)));
+  }
+  const auto got = offset.run(cases);
+  PENUMBRA_EXPECT_ALL_NEAR(want, got, kOffsetTolerance,
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
+  for (const glm::vec3& g : got) EXPECT_NE(g, glm::vec3(0.0f));
 }
 
 TEST_F(BiasExtremesTest, DegenerateLightDirectionsGiveTheFullOffset) {

@@ -16,11 +16,13 @@ namespace penumbra::ref {
 inline constexpr double kFloatMin = std::numeric_limits<float>::min();
 inline constexpr double kFloatMax = std::numeric_limits<float>::max();
 
-// A vector is degenerate when its squared length, as a float, would be below FLT_MIN or not
-// finite.
+// A vector is degenerate when a component is not finite, or when every component is below
+// FLT_MIN in magnitude (zero or denormal). Any other length is usable.
 inline bool degenerate(const glm::vec3& v) {
-  const double len2 = glm::dot(glm::dvec3(v), glm::dvec3(v));
-  return !(len2 >= kFloatMin) || !(len2 <= kFloatMax);
+  for (int i = 0; i < 3; ++i)
+    if (!std::isfinite(v[i])) return true;
+  const double m = std::max({std::abs(double(v.x)), std::abs(double(v.y)), std::abs(double(v.z))});
+  return !(m >= kFloatMin);
 }
 
 // sin(theta) for N.L > 0, else 1; 1 for a degenerate normal or light.

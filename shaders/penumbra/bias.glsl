@@ -33,18 +33,34 @@ const float kReceiverPlaneMinDet = 1.0e-4;
 // 2^100, are first scaled by 2^-64 together with their dividends (exact: a power of two).
 const float kBiasLargeDivisor = 1.2676506e30;
 
+// Returns v scaled by a power of two (exactly, with ldexp) so that its largest component's
+// magnitude lies in [0.5, 1), or vec3(0) when v is degenerate: a NaN or infinite component, or
+// every component below FLT_MIN in magnitude (zero or denormal, which a GPU may flush). Any other
+// length, 1e-30 or 1e30, then normalizes without its squared length under- or overflowing.
+vec3 bias_rescaled(vec3 v) {
+  if (!penumbra_is_finite(v.x) || !penumbra_is_finite(v.y) || !penumbra_is_finite(v.z))
+    return vec3(0.0);
+  vec3 a = abs(v);
+  float m = max(max(a.x, a.y), a.z);
+  if (!(m >= kBiasMinNormal)) return vec3(0.0);
+  int e;
+  frexp(m, e);
+  return ldexp(v, ivec3(-e));
+}
+
 // Returns sin(theta) in [0, 1] between normal and to_light: |N x L| for unit N, L when N.L > 0,
-// and 1 (grazing) when N.L <= 0, when to_light is degenerate (zero, denormal or non-finite) and
-// when normal is degenerate (the offset along a degenerate normal is zero anyway).
+// and 1 (grazing) when N.L <= 0, when to_light is degenerate (bias_rescaled: non-finite, or zero
+// or denormal in every component) and when normal is degenerate (the offset along a degenerate
+// normal is zero anyway). Both vectors may have any other length.
 float normal_offset_scale(vec3 normal, vec3 to_light) {
-  float nn = dot(normal, normal);
-  float ll = dot(to_light, to_light);
-  if (!(nn >= kBiasMinNormal) || !(ll >= kBiasMinNormal) || !penumbra_is_finite(nn) ||
-      !penumbra_is_finite(ll)) {
-    return 1.0;
-  }
-  vec3 n = normal * inversesqrt(nn);
-  vec3 l = to_light * inversesqrt(ll);
+  vec3 rn = bias_rescaled(normal);
+  vec3 rl = bias_rescaled(to_light);
+  // Rescaled, a usable vector's squared length is in [0.25, 3).
+  float nn = dot(rn, rn);
+  float ll = dot(rl, rl);
+  if (!(nn > 0.0) || !(ll > 0.0)) return 1.0;
+  vec3 n = rn * inversesqrt(nn);
+  vec3 l = rl * inversesqrt(ll);
   if (!(dot(n, l) > 0.0)) return 1.0;
   // |N x L| rather than sqrt(1 - (N.L)^2): accurate near theta = 0, where N.L rounds to 1.
   // sqrt is 1 / inversesqrt in Vulkan, and inversesqrt(0) is undefined: 0 is handled apart.
@@ -56,13 +72,15 @@ float normal_offset_scale(vec3 normal, vec3 to_light) {
 // Returns the world-space offset to add to a receiver's position before projecting it into the
 // shadow map: normalize(normal) * offset_texels * texel_world_size * sin(theta), theta the angle
 // to the light (normal_offset_scale: 0 facing the light, the full offset at grazing angles and on
-// back faces; finite at N.L = 0). vec3(0) for a degenerate normal (zero, denormal length or
-// non-finite). texel_world_size is the cascade's CascadeGpu.params.x.
+// back faces; finite at N.L = 0). The normal may have any finite length (1e-30 and 1e30 alike);
+// vec3(0) for a degenerate normal (bias_rescaled: non-finite, or zero or denormal in every
+// component). texel_world_size is the cascade's CascadeGpu.params.x.
 vec3 normal_offset(vec3 normal, vec3 to_light, float texel_world_size, float offset_texels) {
-  float nn = dot(normal, normal);
-  if (!(nn >= kBiasMinNormal) || !penumbra_is_finite(nn)) return vec3(0.0);
+  vec3 rn = bias_rescaled(normal);
+  float nn = dot(rn, rn);
+  if (!(nn > 0.0)) return vec3(0.0);
   float distance = offset_texels * texel_world_size * normal_offset_scale(normal, to_light);
-  return normal * (inversesqrt(nn) * distance);
+  return rn * (inversesqrt(nn) * distance);
 }
 
 // Returns min(constant_bias + slope_scale * tan(theta), max_bias) with cos(theta) = n_dot_l
