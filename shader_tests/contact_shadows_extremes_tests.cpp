@@ -278,5 +278,31 @@ TEST_F(ContactExtremesTest, MarchOnExtremeBuffersReturnsMasksInTheUnitInterval) 
   }
 }
 
+// The depth buffer's own resolution floors the occlusion tolerance. Standard depth with near
+// 1e-4 and far 1e6 stores a surface 10 m away as d = 1 - 1e-5, whose float step (2^-24) spans
+// 6 cm of view distance: more than the 2 cm that depth_bias 0.002 allows there, which is what
+// scattered false contact shadows over the default scene (2,304 pixels at 1280x720; 563 with
+// the floor). Reverse-Z stores d ~ 1e-5 with steps of 2^-40: 1e-6 m.
+TEST_F(ContactExtremesTest, DepthStepIsTheViewDistanceOfOneStoredDepthStep) {
+  ShaderFunction<float(float, float, float, float)> step(kFile, "contact_depth_step");
+  const double n = 1e-4, f = 1e6, z = 10.0;
+  const float d_std = float(f * (z - n) / (z * (f - n)));
+  const float d_rev = float(n * (f - z) / (z * (f - n)));
+  const double scale = (f - n) / (f * n);
+  EXPECT_NEAR(step(d_std, float(z), float(n), float(f)), z * z * scale * std::ldexp(1.0, -24),
+              1e-6);
+  EXPECT_NEAR(step(d_std, float(z), float(n), float(f)), 0.0596, 0.001);
+  EXPECT_NEAR(step(d_rev, float(z), float(n), float(f)), z * z * scale * std::ldexp(1.0, -40),
+              1e-12);
+  // An infinite far plane (0): z^2 / near.
+  EXPECT_NEAR(step(0.5f, 2.0f, 0.1f, 0.0f), 4.0 / 0.1 * std::ldexp(1.0, -24), 1e-9);
+  // No depth, NaN and infinity: no floor; a depth the buffer cannot resolve: +Inf, never NaN.
+  EXPECT_EQ(step(0.0f, 10.0f, 0.1f, 100.0f), 0.0f);
+  EXPECT_EQ(step(kNan, 10.0f, 0.1f, 100.0f), 0.0f);
+  EXPECT_EQ(step(kInf, 10.0f, 0.1f, 100.0f), 0.0f);
+  const float huge = step(0.99f, 1e30f, 1e-6f, 1e9f);
+  EXPECT_TRUE(huge > 1e30f) << huge;
+}
+
 }  // namespace
 }  // namespace penumbra::testing

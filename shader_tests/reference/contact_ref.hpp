@@ -194,6 +194,17 @@ inline double tolerance(double depth_bias, double z, double ndl) {
   return depth_bias * z / std::max(ndl, kMinNdotL);
 }
 
+// One float step of the stored depth d, in view distance at z: ulp(d) |dz/dd| with
+// |dz/dd| = z^2 (far - near) / (far near), z^2 / near for an infinite far plane.
+inline double depth_step(double d, double z, double near, double far) {
+  if (!(d > 0.0) || !std::isfinite(d) || !(z > 0.0)) return 0.0;
+  int e = 0;
+  std::frexp(d, &e);
+  const double ulp = std::ldexp(1.0, e - 24);
+  const double scale = std::isinf(far) || far <= 0.0 ? 1.0 / near : (far - near) / (far * near);
+  return z * z * scale * ulp;
+}
+
 // 1/z is affine along a screen-space segment: z(t) = 1 / ((1 - t) / z0 + t / z1).
 inline double ray_depth(double z0, double z1, double t) {
   return 1.0 / ((1.0 - t) / z0 + t / z1);
@@ -313,7 +324,8 @@ inline Ray setup_ray(int x, int y, double depth, glm::dvec3 normal, const Params
   r.z1 = ray_depth(z0, -end.z, t);
   r.length_px = glm::length((r.uv1 - uv0) * glm::dvec2(width, height));
   r.steps = step_count(r.length_px, p.step_count);
-  r.tolerance = tolerance(p.depth_bias, z0, r.n_dot_l);
+  r.tolerance =
+      std::max(tolerance(p.depth_bias, z0, r.n_dot_l), 2.0 * depth_step(depth, z0, p.near, p.far));
   return r;
 }
 

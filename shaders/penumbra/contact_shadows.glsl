@@ -203,6 +203,26 @@ float contact_bias_tolerance(float depth_bias, float z, float n_dot_l) {
   return depth_bias * z / max(n_dot_l, kContactMinNdotL);
 }
 
+// How many float steps of the stored depth the occlusion test tolerates at least
+// (contact_depth_step): the receiver's depth and each tap's carry one rounding each.
+const float kContactDepthSteps = 2.0;
+
+// The view-space distance that one float step of the stored depth d spans at view distance z:
+// ulp(d) * |dz/dd|, with |dz/dd| = z^2 (far - near) / (far near) in both conventions (z^2 / near
+// for an infinite far plane, far_plane = 0). Depth differences below a few such steps are
+// rounding, not geometry: standard depth with near 1e-4 and far 1e6 stores 10 m in steps of
+// 6 cm, while reverse-Z keeps them near 1e-7 of z. 0 for a depth of 0, NaN or infinity; +Inf
+// where the buffer cannot tell distances apart at all.
+float contact_depth_step(float d, float z, float near_plane, float far_plane) {
+  if (!(d > 0.0) || !penumbra_is_finite(d) || !(z > 0.0)) return 0.0;
+  int e;
+  frexp(d, e);
+  float ulp = ldexp(1.0, e - 24);  // d = m 2^e with m in [0.5, 1): 24 significant bits
+  float scale =
+      far_plane > 0.0 ? (far_plane - near_plane) / (far_plane * near_plane) : 1.0 / near_plane;
+  return z * (z * (scale * ulp));
+}
+
 // a * (1 - t) + b * t for a, b >= 0 and t in [0, 1], written out: both terms are >= 0, so
 // nothing cancels and the result keeps the operands' relative precision (fused or not). mix()
 // may be evaluated as a + t * (b - a) (the H100 evidently does): for a = 5e5, b = 1e-6, t = 1
@@ -254,7 +274,8 @@ float contact_edge_fade(vec2 uv, float fade_width) {
 // pixel. Otherwise uv_segment = (uv_start, uv_end) and inv_z = (1 / z_start, 1 / z_end) of the
 // ray from the pixel's view position along light_dir (towards the light's position for a
 // positional light, at most as far as the light), clamped before the camera plane and
-// clipped to the screen (both > 0), and tolerance is the depth tolerance at the receiver.
+// clipped to the screen (both > 0), and tolerance is the depth tolerance at the receiver: the
+// larger of contact_bias_tolerance and kContactDepthSteps steps of the stored depth.
 uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p,
                        out vec4 uv_segment, out vec2 inv_z, out float tolerance) {
   uv_segment = vec4(0.0);
@@ -292,7 +313,8 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
   if (steps == 0u) return 0u;
   uv_segment = vec4(uv0, uv1);
   inv_z = vec2(inv_z0, inv_z1);
-  tolerance = contact_bias_tolerance(p.depth_bias, z0, n_dot_l);
+  tolerance = max(contact_bias_tolerance(p.depth_bias, z0, n_dot_l),
+                  kContactDepthSteps * contact_depth_step(depth, z0, p.near_plane, p.far_plane));
   return steps;
 }
 
