@@ -482,11 +482,11 @@ int run(int argc, char** argv) {
   for (const auto& name : order) {
     const double m = median(samples[name]);
     total += m;
-    std::printf("  %-18s %9.3f ms\n", name.c_str(), m);
+    std::printf("  %-22s %9.3f ms\n", name.c_str(), m);
     csv << '"' << ctx.info().name << "\"," << scene.name << ',' << renderer.width() << ','
         << renderer.height() << ',' << name << ',' << m << ',' << frames << "\n";
   }
-  std::printf("  %-18s %9.3f ms\n", "total", total);
+  std::printf("  %-22s %9.3f ms\n", "total", total);
   std::printf("\nwrote:\n");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());

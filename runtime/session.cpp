@@ -325,11 +325,11 @@ std::string Session::timings_text() const {
   double total = 0;
   char line[96];
   for (const auto& t : renderer_->timings()) {
-    std::snprintf(line, sizeof line, "  %-18s %9.3f ms\n", t.name.c_str(), t.gpu_ms);
+    std::snprintf(line, sizeof line, "  %-22s %9.3f ms\n", t.name.c_str(), t.gpu_ms);
     s += line;
     total += t.gpu_ms;
   }
-  std::snprintf(line, sizeof line, "  %-18s %9.3f ms\n", "total", total);
+  std::snprintf(line, sizeof line, "  %-22s %9.3f ms\n", "total", total);
   return s + line;
 }
 
