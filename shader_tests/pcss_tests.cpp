@@ -498,5 +498,44 @@ TEST_F(PcssTest, PlanarBlockerPenumbraWidthIsTwoHTanHalfTheta) {
   }
 }
 
+// Texel reads out of range. The compare taps go through texture(), which clamps the array layer
+// to [0, layers - 1]; texelFetch past the last layer is undefined (lavapipe returns 0, so PCSS
+// said lit where PCF said shadowed). pcss_fetch_depth_array clamps the layer the same way, so
+// both read the same layer for any layer argument, and PCSS agrees with PCF on a layer past the
+// end.
+TEST_F(PcssTest, ArrayLayersOutOfRangeReadTheClampedLayerLikeTheCompareTaps) {
+  const std::vector<float> layer_depth = {0.2f, 0.5f, 0.8f};
+  std::vector<ref::DepthMap> layers;
+  for (float d : layer_depth) layers.push_back({16, 16, std::vector<float>(256, d)});
+  ShaderFunction<float(Sampler2DArray, glm::vec2, int32_t)> fetch("penumbra/pcss.glsl",
+                                                                  "pcss_fetch_depth_array");
+  fetch.bind(0, raw_texture(layers, true));
+  const std::vector<std::tuple<glm::vec2, int32_t>> cases = {
+      {{0.5f, 0.5f}, -5}, {{0.5f, 0.5f}, -1}, {{0.5f, 0.5f}, 0},  {{0.5f, 0.5f}, 1},
+      {{0.5f, 0.5f}, 2},  {{0.5f, 0.5f}, 3},  {{0.5f, 0.5f}, 100}};
+  EXPECT_EQ(fetch.run(cases), (std::vector<float>{0.2f, 0.2f, 0.2f, 0.5f, 0.8f, 0.8f, 0.8f}));
+
+  // Reverse-Z: the last layer's blockers (0.8) cover a receiver at 0.6; PCF (texture(), clamped)
+  // and PCSS read that layer for layer 7 alike.
+  ShaderFunction<float(Sampler2DArrayShadow, glm::vec3, int32_t, int32_t, glm::vec2)> pcf(
+      "penumbra/pcf.glsl", "pcf_grid_array");
+  pcf.bind(0, compare_texture(layers, true, true));
+  PcssArrayFn pcss("penumbra/pcss.glsl", "pcss_shadow_array");
+  pcss.bind(0, compare_texture(layers, true, true)).bind(1, raw_texture(layers, true));
+  Params p;
+  p.tan_half_angle = 0.01f;
+  p.texel_world_size = 0.1f;
+  p.depth_far = 100.0f;
+  p.max_search_texels = 8.0f;
+  p.min_filter_texels = 1.0f;
+  p.max_filter_texels = 8.0f;
+  const glm::vec3 c(0.5f, 0.5f, 0.6f);
+  const glm::vec2 texel(1.0f / 16.0f);
+  for (int32_t layer : {2, 7}) {
+    EXPECT_EQ(pcf(c, layer, 1, texel), 0.0f) << "layer " << layer;
+    EXPECT_EQ(pcss(c, layer, texel, p, 1, 0.0f, true), 0.0f) << "layer " << layer;
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing
