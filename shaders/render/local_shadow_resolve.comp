@@ -85,7 +85,8 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
     float zb = linearize_depth(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
-  uint filter_mode = frame.mode.z;
+  // The light's own filter (LightGpu.params.w), else the scene's.
+  uint filter_mode = light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
   if (filter_mode == kFilterHard) return pcf_grid_array(spot_compare, coord, map, 0, texel);
   if (filter_mode == kFilterPcf)
     return pcf_grid_array(spot_compare, coord, map, int(frame.filter_params.x), texel);
@@ -139,7 +140,8 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
     float zb = cube_stored_distance(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
-  uint filter_mode = frame.mode.z;
+  // The light's own filter (LightGpu.params.w), else the scene's.
+  uint filter_mode = light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
   if (filter_mode == kFilterHard) return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
   if (filter_mode == kFilterPcf)
     return pcf_cube_array(point_compare, v, map, ref, int(frame.filter_params.x), resolution);

@@ -117,7 +117,7 @@ void read_sun(const Reader& r, Scene& scene) {
 
 void read_spot(const Reader& r, SpotLight& spot) {
   r.check_keys({"position", "direction", "target", "color", "intensity", "outer_angle",
-                "inner_angle", "range", "radius", "shadows", "resolution"});
+                "inner_angle", "range", "radius", "shadows", "resolution", "filter"});
   spot.position = r.required_vec3("position");
   if (r.has("direction") && r.has("target")) {
     r.fail_key("target", "give either 'direction' or 'target', not both");
@@ -147,10 +147,12 @@ void read_spot(const Reader& r, SpotLight& spot) {
   spot.radius = r.numberf("radius", spot.radius, kNonNegative);
   spot.shadows = r.boolean("shadows", spot.shadows);
   spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
+  spot.filter = r.opt_enum("filter", kFilters);
 }
 
 void read_point(const Reader& r, PointLight& point) {
-  r.check_keys({"position", "color", "intensity", "range", "radius", "shadows", "resolution"});
+  r.check_keys(
+      {"position", "color", "intensity", "range", "radius", "shadows", "resolution", "filter"});
   point.position = r.required_vec3("position");
   point.color = r.vec3("color", point.color, kNonNegative);
   point.intensity = r.numberf("intensity", point.intensity, kNonNegative);
@@ -158,6 +160,7 @@ void read_point(const Reader& r, PointLight& point) {
   point.radius = r.numberf("radius", point.radius, kNonNegative);
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
+  point.filter = r.opt_enum("filter", kFilters);
 }
 
 // [shadows], [contact] and [render] are the parameter table's rows and nothing else.

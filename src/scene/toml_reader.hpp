@@ -125,6 +125,10 @@ using Names = std::vector<std::pair<std::string_view, E>>;
 
 inline const Names<AlphaMode> kAlphaModes{{"opaque", AlphaMode::opaque},
                                           {"masked", AlphaMode::masked}};
+inline const Names<Filter> kFilters{{"hard", Filter::hard},
+                                    {"pcf", Filter::pcf},
+                                    {"pcss", Filter::pcss},
+                                    {"poisson", Filter::poisson}};
 inline const Names<MaskPattern> kMasks{{"none", MaskPattern::none},
                                        {"texture", MaskPattern::texture},
                                        {"stripes", MaskPattern::stripes},

@@ -172,10 +172,14 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
   scene::Scene s = parse(kScene);
   s.spots[0].radius = 0.125f;
   s.points[0].radius = 0.25f;
+  s.points[0].filter = scene::Filter::pcss;
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
   // The sphere lights' radii reach the local resolve's PCSS.
   EXPECT_EQ(f.frame.spots[0].params.z, 0.125f);
   EXPECT_EQ(f.frame.points[0].params.z, 0.25f);
+  // A light's own filter reaches its params.w; -1 means the scene's.
+  EXPECT_EQ(f.frame.points[0].params.w, float(filter_index(scene::Filter::pcss)));
+  EXPECT_EQ(f.frame.spots[0].params.w, -1.0f);
   // Three spots declared, kMaxSpotLights (2) packed; the second casts no shadow.
   EXPECT_EQ(f.frame.counts.x, uint32_t(kMaxSpotLights));
   EXPECT_EQ(f.frame.counts.y, 1u);

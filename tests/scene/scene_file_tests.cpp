@@ -261,6 +261,21 @@ TEST(SceneFile, LightRadiusDefaultsToAPointAndIsRead) {
                                                              "of range; must be >= 0"));
 }
 
+TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
+  const Scene scene = parse(
+      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"pcss\"\n"
+      "[[point]]\nposition = [1, 2, 0]\n" +
+      kBox);
+  ASSERT_TRUE(scene.spots[0].filter.has_value());
+  EXPECT_EQ(*scene.spots[0].filter, Filter::pcss);
+  EXPECT_FALSE(scene.points[0].filter.has_value());  // the [shadows] filter applies
+  const std::string text = "[[point]]\nposition = [1, 2, 0]\nfilter = \"pfc\"\n" + kBox;
+  EXPECT_THAT(error_of(text),
+              HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
+                                             "values: hard, pcf, pcss, poisson (did you mean "
+                                             "'pcf'?)"));
+}
+
 TEST(SceneFile, ObjectTransform) {
   const Scene scene = parse(R"(
 [[object]]

@@ -18,7 +18,9 @@ struct alignas(16) LightGpu {
   glm::vec4 position_range;   // xyz relative to the render origin; w: range (m)
   glm::vec4 direction_cos;    // spot: xyz axis (unit), w: cos(outer); point: 0
   glm::vec4 color_intensity;  // rgb, w: intensity
-  glm::vec4 params;  // x: cos(inner) (spot), y: shadow map index or -1, z: radius (m), w: 0
+  // x: cos(inner) (spot), y: shadow map index or -1, z: radius (m), w: the light's own filter
+  // (filter_index) or -1 for the scene's
+  glm::vec4 params;
 };
 static_assert(sizeof(LightGpu) == 64);
 

@@ -67,6 +67,8 @@ struct Sun {
   bool shadows = true;
 };
 
+enum class Filter { hard, pcf, pcss, poisson };
+
 struct SpotLight {
   glm::vec3 position{0.0f};
   glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit, the cone's axis
@@ -78,6 +80,7 @@ struct SpotLight {
   float radius = 0.0f;          // >= 0: the emitting sphere's radius; 0 = a point (hard shadows)
   bool shadows = true;
   std::uint32_t resolution = 1024;
+  std::optional<Filter> filter;  // this light's filter; unset: [shadows] filter
 };
 
 struct PointLight {
@@ -88,9 +91,9 @@ struct PointLight {
   float radius = 0.0f;  // >= 0: the emitting sphere's radius; 0 = a point (hard shadows)
   bool shadows = true;
   std::uint32_t resolution = 512;  // of each cube face
+  std::optional<Filter> filter;    // this light's filter; unset: [shadows] filter
 };
 
-enum class Filter { hard, pcf, pcss, poisson };
 // One enum for the concept: the cascade math's (docs/cascades.md).
 using CascadeFit = shadow::CascadeFit;
 

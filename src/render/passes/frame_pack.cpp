@@ -53,7 +53,8 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
     l.direction_cos =
         glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
     l.color_intensity = glm::vec4(s.color, s.intensity);
-    l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius, 0);
+    l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius,
+                         s.filter ? float(filter_index(*s.filter)) : -1.0f);
     if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
       shadow::SpotLight sl;
       sl.position = to_d(s.position);
@@ -74,7 +75,7 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
     LightGpu& l = out.frame.points[points++];
     l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
     l.color_intensity = glm::vec4(p.color, p.intensity);
-    l.params = glm::vec4(0, -1.0f, p.radius, 0);
+    l.params = glm::vec4(0, -1.0f, p.radius, p.filter ? float(filter_index(*p.filter)) : -1.0f);
     if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
       shadow::PointLight pl;
       pl.position = to_d(p.position);
