@@ -142,6 +142,15 @@ void cube_tangent_basis(vec3 dir, out vec3 t, out vec3 b) {
   b = vec3(c, s + n.y * n.y * a, -n.y);
 }
 
+// Returns the world length, in the plane perpendicular to dir, of one texel of the cube face dir
+// selects, scaled by the direction's length: 2 m / resolution with m the largest component of
+// |dir|; t and b receive cube_tangent_basis(dir). A tap one texel aside is dir + step * t.
+float cube_texel_step(vec3 dir, float resolution, out vec3 t, out vec3 b) {
+  cube_tangent_basis(dir, t, b);
+  vec3 a = abs(dir);
+  return 2.0 * max(max(a.x, a.y), a.z) / resolution;
+}
+
 // Returns true when dir can address a cube map: finite and not zero (or denormal).
 bool cube_dir_valid(vec3 dir) {
   float ll = dot(dir, dir);
@@ -158,9 +167,7 @@ float pcf_cube_array(samplerCubeArrayShadow map, vec3 dir, int layer, float ref,
   if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return 1.0;
   int r = pcf_clamp_radius(radius);
   vec3 t, b;
-  cube_tangent_basis(dir, t, b);
-  vec3 a = abs(dir);
-  float step = 2.0 * max(max(a.x, a.y), a.z) / resolution;
+  float step = cube_texel_step(dir, resolution, t, b);
   float depth = clamp(ref, 0.0, 1.0);
   float sum = 0.0;
   for (int j = -r; j <= r; ++j) {
@@ -180,9 +187,7 @@ float pcf_cube_vogel_array(samplerCubeArrayShadow map, vec3 dir, int layer, floa
   if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return 1.0;
   int n = clamp(tap_count, 1, kPcfMaxVogelTaps);
   vec3 t, b;
-  cube_tangent_basis(dir, t, b);
-  vec3 a = abs(dir);
-  float step = 2.0 * max(max(a.x, a.y), a.z) / resolution * pcf_safe_radius(radius_texels);
+  float step = cube_texel_step(dir, resolution, t, b) * pcf_safe_radius(radius_texels);
   float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float depth = clamp(ref, 0.0, 1.0);
   float sum = 0.0;
@@ -207,9 +212,7 @@ void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, f
   if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return;
   int n = clamp(tap_count, 1, kPcssMaxSearchTaps);
   vec3 t, b;
-  cube_tangent_basis(dir, t, b);
-  vec3 a = abs(dir);
-  float step = 2.0 * max(max(a.x, a.y), a.z) / resolution * pcf_safe_radius(radius_texels);
+  float step = cube_texel_step(dir, resolution, t, b) * pcf_safe_radius(radius_texels);
   float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {

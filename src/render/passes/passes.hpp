@@ -92,6 +92,11 @@ std::string variant(const std::string& name, const std::vector<shader::Define>& 
 // Every draw of the frame (casters only, or all), opaque then masked, with `index` pushed.
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
+// Binds a compute pipeline and its set 0 and dispatches one invocation per pixel of the frame
+// (8x8 groups).
+void dispatch_per_pixel(VkCommandBuffer cmd, const FrameResources& r,
+                        const gpu::PipelineLayout& layout, const gpu::ComputePipeline& pipeline,
+                        VkDescriptorSet set);
 // Dynamic rendering into an optional colour target (cleared to `clear`, extra targets cleared
 // to 0) and a depth target (cleared to far, or loaded), with a full viewport and scissor.
 void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,

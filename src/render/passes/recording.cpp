@@ -83,6 +83,15 @@ std::vector<shader::Define> light_defines(const FrameResources& r) {
           {"PENUMBRA_POINT_SHADOWS", std::to_string(r.req.point_shadow_cubes)}};
 }
 
+void dispatch_per_pixel(VkCommandBuffer cmd, const FrameResources& r,
+                        const gpu::PipelineLayout& layout, const gpu::ComputePipeline& pipeline,
+                        VkDescriptorSet set) {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.handle());
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set, 0,
+                          nullptr);
+  vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
+}
+
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index) {
   for (int pass = 0; pass < 2; ++pass) {

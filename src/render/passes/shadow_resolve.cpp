@@ -44,10 +44,7 @@ PassIo ShadowResolvePass::io() const {
 
 void ShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
-                          nullptr);
-  vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
+  dispatch_per_pixel(cmd, r, *layout_, *pipeline_, set_);
   r.info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   mark("shadow-resolve");
 }
@@ -109,10 +106,7 @@ PassIo LocalShadowResolvePass::io() const {
 void LocalShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
   r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
-                          nullptr);
-  vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
+  dispatch_per_pixel(cmd, r, *layout_, *pipeline_, set_);
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   mark("local-shadow-resolve");

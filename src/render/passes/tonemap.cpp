@@ -46,10 +46,7 @@ PassIo TonemapPass::io() const {
 
 void TonemapPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.ldr.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
-                          nullptr);
-  vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
+  dispatch_per_pixel(cmd, r, *layout_, *pipeline_, set_);
   mark("tonemap");
 }
 
