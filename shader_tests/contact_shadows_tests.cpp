@@ -43,11 +43,11 @@ struct ContactGpu {
   uint32_t step_count = 16;
   uint32_t frame = 0;
   uint32_t reverse_z = 1;
-  uint32_t reserved = 0;
+  uint32_t caster_mask = 0;
 };
 PENUMBRA_GLSL_STRUCT(ContactGpu, "ContactShadowGpu", light_dir, extent, tan_half_fov_y, aspect,
                      near_plane, far_plane, max_distance, thickness, depth_bias, intensity,
-                     step_exponent, edge_fade, step_count, frame, reverse_z, reserved);
+                     step_exponent, edge_fade, step_count, frame, reverse_z, caster_mask);
 
 namespace penumbra::testing {
 namespace {

@@ -17,7 +17,8 @@ layout(constant_id = 1) const bool kNearestRead = true;
 layout(set = 0, binding = 0) uniform sampler2D filtered_depth;
 // The depth buffer itself (any depth format), read with texelFetch.
 layout(set = 0, binding = 1) uniform sampler2D scene_depth;
-// View-space normals in xyz (x right, y down, z forward), read with texelFetch.
+// View-space normals in xyz (x right, y down, z forward), read with texelFetch; with
+// params.caster_mask, alpha >= 0.75 marks the surfaces that cast shadows.
 layout(set = 0, binding = 2) uniform sampler2D scene_normals;
 layout(set = 0, binding = 3, r8) uniform writeonly image2D contact_mask;
 
@@ -27,7 +28,7 @@ void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   if (any(greaterThanEqual(pixel, imageSize(contact_mask)))) return;
   vec3 normal = texelFetch(scene_normals, pixel, 0).xyz;
-  float mask = contact_shadow(filtered_depth, scene_depth, pixel, normal, pc.params,
-                              kBilinearRead, kNearestRead);
+  float mask = contact_shadow_surfaces(filtered_depth, scene_depth, scene_normals, pixel, normal,
+                                       pc.params, kBilinearRead, kNearestRead);
   imageStore(contact_mask, pixel, vec4(mask));
 }

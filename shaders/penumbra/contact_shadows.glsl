@@ -71,7 +71,7 @@ struct ContactShadowGpu {
   uint step_count;       // the most steps per pixel, <= kContactMaxSteps; 0: no pass at all
   uint frame;            // frame index for the golden-ratio noise offset
   uint reverse_z;        // 1: reverse-Z (near -> 1), 0: standard depth (near -> 0)
-  uint reserved;         // 0
+  uint caster_mask;      // 1: surfaces_alpha < 0.75 never occludes (see contact_shadow)
 };
 
 // True when a depth-buffer value holds no surface: the far plane or beyond (reverse-Z: depth
@@ -323,9 +323,12 @@ uint contact_ray_setup(ivec2 pixel, float depth, vec3 normal, ContactShadowGpu p
 // tap outside the pixel's own texel the depth buffer is read nearest (texelFetch of
 // nearest_depth) and bilinear (filtered_depth: the R32F copy through a linear sampler), and the
 // tap occludes when contact_dual_test says so, weighted by contact_edge_fade at the tap. The
-// mask is 1 - intensity * (the largest weight of an occluding tap), clamped to [0, 1].
-float contact_shadow(sampler2D filtered_depth, sampler2D nearest_depth, ivec2 pixel,
-                     vec3 normal, ContactShadowGpu p, bool use_bilinear, bool use_nearest) {
+// mask is 1 - intensity * (the largest weight of an occluding tap), clamped to [0, 1]. With
+// p.caster_mask set, a tap whose texel in `surfaces` has alpha below 0.75 (a surface that casts
+// no shadow, or sky) does not occlude.
+float contact_shadow_surfaces(sampler2D filtered_depth, sampler2D nearest_depth,
+                              sampler2D surfaces, ivec2 pixel, vec3 normal, ContactShadowGpu p,
+                              bool use_bilinear, bool use_nearest) {
   // Texel reads stay inside the depth image even when p.extent claims more than it holds.
   ivec2 size = min(ivec2(p.extent), textureSize(nearest_depth, 0));
   if (any(lessThan(pixel, ivec2(0))) || any(greaterThanEqual(pixel, size))) return 1.0;
@@ -344,6 +347,8 @@ float contact_shadow(sampler2D filtered_depth, sampler2D nearest_depth, ivec2 pi
     vec2 uv = mix(segment.xy, segment.zw, t);
     ivec2 texel = clamp(ivec2(floor(uv * p.extent)), ivec2(0), size - 1);
     if (texel == pixel) continue;  // the receiver's own texel: it would test the receiver itself
+    // A surface that casts no shadow (the renderer's non-casting ground, say) never occludes.
+    if (p.caster_mask != 0u && !(texelFetch(surfaces, texel, 0).a >= 0.75)) continue;
     float ray_z = contact_ray_depth(inv_z.x, inv_z.y, t);
     float nearest_z = kContactNoSurface;
     float bilinear_z = kContactNoSurface;
@@ -362,6 +367,16 @@ float contact_shadow(sampler2D filtered_depth, sampler2D nearest_depth, ivec2 pi
     }
   }
   return clamp(1.0 - p.intensity * occlusion, 0.0, 1.0);
+}
+
+// contact_shadow_surfaces without a caster mask: every surface in the depth buffer occludes
+// (p.caster_mask is ignored).
+float contact_shadow(sampler2D filtered_depth, sampler2D nearest_depth, ivec2 pixel,
+                     vec3 normal, ContactShadowGpu p, bool use_bilinear, bool use_nearest) {
+  ContactShadowGpu q = p;
+  q.caster_mask = 0u;
+  return contact_shadow_surfaces(filtered_depth, nearest_depth, nearest_depth, pixel, normal, q,
+                                 use_bilinear, use_nearest);
 }
 
 #endif  // PENUMBRA_CONTACT_SHADOWS_GLSL

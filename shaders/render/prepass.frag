@@ -1,6 +1,7 @@
 #version 460
 // Depth + normal prepass: view-space normal in rgb (unit; the contact pass reads view space),
-// 1 in alpha for geometry (sky stays 0).
+// in alpha 1 for geometry that casts shadows, 0.5 for geometry that casts none (the contact pass
+// then ignores it as an occluder), and sky stays 0.
 #include "penumbra/frame_types.glsl"
 #include "penumbra/material.glsl"
 
@@ -16,5 +17,5 @@ layout(location = 0) out vec4 out_normal;
 void main() {
   if (alpha_test_discards(in_uv, int(draw.mask.x), draw.mask.zw, draw.mask.y)) discard;
   vec3 n = normalize(in_normal);
-  out_normal = vec4(mat3(frame.view) * (gl_FrontFacing ? n : -n), 1.0);
+  out_normal = vec4(mat3(frame.view) * (gl_FrontFacing ? n : -n), draw.index.z != 0u ? 1.0 : 0.5);
 }

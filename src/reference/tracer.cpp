@@ -167,7 +167,7 @@ Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<cons
     for (uint32_t x = 0; x < width; ++x) {
       const size_t i = size_t{y} * width + x;
       const glm::vec4 nv = normal_view[i];
-      if (!(nv.w > 0.5f)) continue;  // sky
+      if (!(nv.w > 0.25f)) continue;  // sky (alpha 0; 0.5 and 1 are geometry)
       // Pixel centre in NDC: Vulkan x, y in [-1, 1] with +y down the image, z in [0, 1].
       const glm::dvec4 ndc((x + 0.5) / width * 2.0 - 1.0, (y + 0.5) / height * 2.0 - 1.0,
                            double(depth[i]), 1.0);

@@ -164,7 +164,7 @@ ContactShadowGpu pack_contact_shadow(const ContactShadowSettings& settings,
   g.step_count = settings.step_count;
   g.frame = frame.frame;
   g.reverse_z = c.depth == shadow::DepthConvention::reverse_z ? 1u : 0u;
-  g.reserved = 0;
+  g.caster_mask = frame.caster_mask ? 1u : 0u;
   return g;
 }
 

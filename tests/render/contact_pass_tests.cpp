@@ -499,7 +499,7 @@ TEST_F(ContactPassTest, PushConstantStructMatchesSpirvReflection) {
       {"step_count", offsetof(ContactShadowGpu, step_count), 4, "uint"},
       {"frame", offsetof(ContactShadowGpu, frame), 4, "uint"},
       {"reverse_z", offsetof(ContactShadowGpu, reverse_z), 4, "uint"},
-      {"reserved", offsetof(ContactShadowGpu, reserved), 4, "uint"},
+      {"caster_mask", offsetof(ContactShadowGpu, caster_mask), 4, "uint"},
   };
   ASSERT_EQ(params.members.size(), std::size(expected)) << shader::to_string(r);
   for (size_t i = 0; i < std::size(expected); ++i) {
@@ -532,14 +532,15 @@ void main() { ssbo.params = ubo.params; }
     const shader::BlockMember* p = b->block->find("params");
     ASSERT_NE(p, nullptr);
     EXPECT_EQ(p->size, sizeof(ContactShadowGpu));
-    for (const char* member : {"light_dir", "extent", "far_plane", "step_count", "reserved"}) {
+    for (const char* member : {"light_dir", "extent", "far_plane", "step_count", "caster_mask"}) {
       const shader::BlockMember* m = b->block->find(std::string("params.") + member);
       ASSERT_NE(m, nullptr) << member;
     }
     EXPECT_EQ(b->block->find("params.extent")->offset, offsetof(ContactShadowGpu, extent));
     EXPECT_EQ(b->block->find("params.far_plane")->offset, offsetof(ContactShadowGpu, far_plane));
     EXPECT_EQ(b->block->find("params.step_count")->offset, offsetof(ContactShadowGpu, step_count));
-    EXPECT_EQ(b->block->find("params.reserved")->offset, offsetof(ContactShadowGpu, reserved));
+    EXPECT_EQ(b->block->find("params.caster_mask")->offset,
+              offsetof(ContactShadowGpu, caster_mask));
   }
 }
 

@@ -61,7 +61,10 @@ struct alignas(16) ContactShadowGpu {
   std::uint32_t step_count = 0;
   std::uint32_t frame = 0;
   std::uint32_t reverse_z = 1;
-  std::uint32_t reserved = 0;
+  // 1: the normal image's alpha marks the surfaces that cast shadows (>= 0.75; the renderer's
+  // prepass writes 1 for casters, 0.5 for receivers that cast none, 0 for sky) and a tap on any
+  // other surface never occludes; 0: every surface occludes (alpha is not read)
+  std::uint32_t caster_mask = 0;
 };
 static_assert(sizeof(ContactShadowGpu) == 80);
 static_assert(alignof(ContactShadowGpu) == 16);
@@ -80,7 +83,7 @@ static_assert(offsetof(ContactShadowGpu, edge_fade) == 60);
 static_assert(offsetof(ContactShadowGpu, step_count) == 64);
 static_assert(offsetof(ContactShadowGpu, frame) == 68);
 static_assert(offsetof(ContactShadowGpu, reverse_z) == 72);
-static_assert(offsetof(ContactShadowGpu, reserved) == 76);
+static_assert(offsetof(ContactShadowGpu, caster_mask) == 76);
 
 // The user-facing parameters, with their defaults (docs/contact-shadows.md explains each).
 // The pass's options are the scene's [contact] table (one type, its defaults defined once).
@@ -118,6 +121,8 @@ struct ContactShadowFrame {
   // A spot or point light instead: its position in the pass's view space (relative to the
   // camera, in the basis of contact_view_basis); the march goes towards it.
   std::optional<glm::dvec3> light_position_view;
+  // The normal image's alpha marks shadow casters (ContactShadowGpu::caster_mask).
+  bool caster_mask = false;
   std::uint32_t frame = 0;  // selects the golden-ratio noise offset
 };
 

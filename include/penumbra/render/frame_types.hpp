@@ -75,7 +75,9 @@ struct alignas(16) DrawPush {
   glm::mat4 model;   // object -> (world - origin)
   glm::vec4 albedo;  // rgb, w: 1 opaque / 0 masked
   glm::vec4 mask;    // x: MaskPattern, y: alpha cutoff, zw: mask scale
-  glm::uvec4 index;  // x: cascade layer / cube face / spot index, y: light index
+  // x: cascade layer / cube face / spot index, y: light index, z: 1 when the instance casts
+  // shadows (draw_meshes sets it)
+  glm::uvec4 index;
 };
 static_assert(sizeof(DrawPush) == 112);
 static_assert(offsetof(DrawPush, albedo) == 64);

@@ -51,6 +51,7 @@ void ContactPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mar
     f.light_position_view = to_contact_view(cam, glm::dvec3(p) - cam.position);
   }
   f.frame = r.packed.frame.mode.x;
+  f.caster_mask = true;  // the prepass marks casters in the normals' alpha
   pass_->record(cmd, r.depth, r.normal, f);
   mark("contact-shadows");
 }

@@ -104,6 +104,7 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
       if (m.index_count == 0) continue;
       DrawPush push = d.push;
       push.index = index;
+      push.index.z = d.casts ? 1u : 0u;  // the prepass marks casters for the contact pass
       vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
       VkDeviceSize offset = 0;
       VkBuffer vb = m.vertices.handle();
