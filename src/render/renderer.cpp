@@ -137,7 +137,7 @@ struct Renderer::Impl {
     if (req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0)
       local_resolve = std::make_unique<LocalShadowResolvePass>(res, *shadow_maps);
     std::unique_ptr<Pass> contact;
-    if (req.contact_pass && primary_light_slot(scene) >= 0 && scene.contact.step_count > 0)
+    if (req.contact_pass)  // steps > 0 and a light to march towards (the primary one)
       contact = std::make_unique<ContactPass>(res);
     auto forward = std::make_unique<ForwardPass>(res);
     auto tonemap = std::make_unique<TonemapPass>(res);

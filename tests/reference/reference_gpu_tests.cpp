@@ -177,6 +177,19 @@ TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
       << shadowed_agree << " of " << shadowed << " interior shadowed receivers agree";
 }
 
+// Frame 0 of `s` at width x height against the reference (64 samples, no cache).
+FrameMeasurement measure_at(gpu::Context& c, scene::Scene s, uint32_t width, uint32_t height) {
+  s.render.width = width;
+  s.render.height = height;
+  render::RendererOptions ro;
+  ro.visibility_output = true;
+  render::Renderer r(c, s, ro);
+  r.render(0);
+  MeasureOptions mo;
+  mo.trace.samples = 64;
+  return measure_frame(r, mo);
+}
+
 // ---- every shipped scene ------------------------------------------------------------------------
 class ShippedSceneReference : public ReferenceGpu,
                               public ::testing::WithParamInterface<std::string> {};
@@ -222,15 +235,7 @@ Budget budget_of(const std::string& scene) {
 
 TEST_P(ShippedSceneReference, MeetsTheAccuracyBudgetAndWritesTheImages) {
   scene::Scene s = scene::load_scene(scene::find_scene(GetParam()));
-  s.render.width = 640;
-  s.render.height = 360;
-  render::RendererOptions ro;
-  ro.visibility_output = true;
-  render::Renderer r(ctx(), s, ro);
-  r.render(0);
-  MeasureOptions mo;
-  mo.trace.samples = 64;
-  const FrameMeasurement m = measure_frame(r, mo);
+  const FrameMeasurement m = measure_at(ctx(), s, 640, 360);
   ASSERT_FALSE(m.lights.empty());
   const Budget b = budget_of(GetParam());
   uint64_t receivers = 0;
@@ -278,15 +283,7 @@ INSTANTIATE_TEST_SUITE_P(Scenes, ShippedSceneReference,
 TEST_F(ReferenceGpu, ContactShadowsIgnoreSurfacesThatCastNoShadow) {
   scene::Scene s = scene::load_scene(scene::find_scene("default"));
   s.sun->direction = glm::vec3(0.0f, 1.0f, 0.0f);
-  s.render.width = 320;
-  s.render.height = 180;
-  render::RendererOptions ro;
-  ro.visibility_output = true;
-  render::Renderer r(ctx(), s, ro);
-  r.render(0);
-  MeasureOptions mo;
-  mo.trace.samples = 64;
-  const FrameMeasurement m = measure_frame(r, mo);
+  const FrameMeasurement m = measure_at(ctx(), s, 320, 180);
   ASSERT_EQ(m.lights.size(), 1u);
   const Metrics& sun = m.lights[0].metrics;
   ASSERT_GT(sun.receivers, 1000u) << "the undersides the sun reaches";

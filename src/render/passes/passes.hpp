@@ -92,11 +92,22 @@ std::string variant(const std::string& name, const std::vector<shader::Define>& 
 // Every draw of the frame (casters only, or all), opaque then masked, with `index` pushed.
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
-// Binds a compute pipeline and its set 0 and dispatches one invocation per pixel of the frame
-// (8x8 groups).
-void dispatch_per_pixel(VkCommandBuffer cmd, const FrameResources& r,
-                        const gpu::PipelineLayout& layout, const gpu::ComputePipeline& pipeline,
-                        VkDescriptorSet set);
+// A compute program run once per pixel of the frame (8x8 groups): its layout (set 0 only), its
+// pipeline in the program registry (a reload replaces it) and its descriptor set. The compute
+// passes (the shadow resolves, tonemap) build one and write their resources into set().
+class PerPixelCompute {
+ public:
+  PerPixelCompute(FrameResources& r, const std::string& name, shader::ProgramSource source,
+                  std::vector<gpu::BindingDesc> bindings);
+  VkDescriptorSet set() const { return set_; }
+  void dispatch(VkCommandBuffer cmd, const FrameResources& r) const;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::ComputePipeline> pipeline_;
+  VkDescriptorSet set_ = VK_NULL_HANDLE;
+};
+
 // Dynamic rendering into an optional colour target (cleared to `clear`, extra targets cleared
 // to 0) and a depth target (cleared to far, or loaded), with a full viewport and scissor.
 void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,
@@ -144,9 +155,7 @@ class ShadowResolvePass final : public Pass {
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
 
  private:
-  std::unique_ptr<gpu::PipelineLayout> layout_;
-  std::unique_ptr<gpu::ComputePipeline> pipeline_;
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  PerPixelCompute compute_;
 };
 
 // Spot and point lights: biases and the filter, per pixel and light, into the local-shadow image
@@ -158,9 +167,7 @@ class LocalShadowResolvePass final : public Pass {
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
 
  private:
-  std::unique_ptr<gpu::PipelineLayout> layout_;
-  std::unique_ptr<gpu::ComputePipeline> pipeline_;
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  PerPixelCompute compute_;
 };
 
 // Screen-space contact shadows toward the sun (ContactShadowPass), into the contact mask.
@@ -195,9 +202,7 @@ class TonemapPass final : public Pass {
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
 
  private:
-  std::unique_ptr<gpu::PipelineLayout> layout_;
-  std::unique_ptr<gpu::ComputePipeline> pipeline_;
-  VkDescriptorSet set_ = VK_NULL_HANDLE;
+  PerPixelCompute compute_;
 };
 
 // The defines every lit pass's variant is built with (what the scene requires).

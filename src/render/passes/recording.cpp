@@ -83,11 +83,20 @@ std::vector<shader::Define> light_defines(const FrameResources& r) {
           {"PENUMBRA_POINT_SHADOWS", std::to_string(r.req.point_shadow_cubes)}};
 }
 
-void dispatch_per_pixel(VkCommandBuffer cmd, const FrameResources& r,
-                        const gpu::PipelineLayout& layout, const gpu::ComputePipeline& pipeline,
-                        VkDescriptorSet set) {
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.handle());
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set, 0,
+PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
+                                 shader::ProgramSource source,
+                                 std::vector<gpu::BindingDesc> bindings)
+    : layout_(std::make_unique<gpu::PipelineLayout>(
+          r.ctx, std::vector<std::vector<gpu::BindingDesc>>{std::move(bindings)})) {
+  r.add_pipeline(name, {std::move(source)}, [this, &r](const shader::Spirvs& spirv) {
+    pipeline_ = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
+  });
+  set_ = r.pool.allocate(layout_->set_layout(0));
+}
+
+void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) const {
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
+  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
                           nullptr);
   vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
 }

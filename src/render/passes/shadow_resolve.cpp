@@ -8,24 +8,48 @@
 
 namespace penumbra::render::passes {
 
-ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps) {
+namespace {
+
+constexpr VkShaderStageFlags kCompute = VK_SHADER_STAGE_COMPUTE_BIT;
+
+std::vector<gpu::BindingDesc> sun_resolve_bindings() {
+  return {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+          {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+          {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+          {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+          {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+          {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+          {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+}
+
+// Frame, depth, normals and the two outputs, then per light type present its block, its compare
+// view and its raw view (spots at 3-5, points at 6-8).
+std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
+  std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+                                  {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {9, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute},
+                                  {10, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+  for (uint32_t first : {3u, 6u}) {
+    if ((first == 3u ? r.req.spot_shadow_maps : r.req.point_shadow_cubes) == 0) continue;
+    b.push_back({first, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute});
+    b.push_back({first + 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+    b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  }
+  return b;
+}
+
+std::vector<shader::Define> local_defines(const FrameResources& r) {
+  const auto all = light_defines(r);
+  return {all[2], all[3]};
+}
+
+}  // namespace
+
+ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
+    : compute_(r, "shadow-resolve", {"render/shadow_resolve.comp", {}}, sun_resolve_bindings()) {
   r.info = r.make_image("shadow-info", gpu::ImageKind::image_2d, kInfoFormat, r.width, r.height, 1,
                         VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
-  const VkShaderStageFlags cs = VK_SHADER_STAGE_COMPUTE_BIT;
-  layout_ = std::make_unique<gpu::PipelineLayout>(
-      r.ctx, std::vector<std::vector<gpu::BindingDesc>>{
-                 {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs},
-                  {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs},
-                  {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                  {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                  {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                  {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                  {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}}});
-  r.add_pipeline("shadow-resolve", {{"render/shadow_resolve.comp", {}}},
-                 [this, &r](const shader::Spirvs& spirv) {
-                   pipeline_ = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
-                 });
-  set_ = r.pool.allocate(layout_->set_layout(0));
   gpu::DescriptorWriter()
       .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .buffer(1, maps.sun_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
@@ -34,7 +58,7 @@ ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& map
       .combined_image(4, maps.sun_map.view(), r.shadow_compare.handle())
       .combined_image(5, maps.sun_map.view(), r.raw_depth.handle())
       .storage_image(6, r.info.view())
-      .update(r.ctx, set_);
+      .update(r.ctx, compute_.set());
   r.report.passes.push_back("shadow-resolve: compute");
 }
 
@@ -44,40 +68,20 @@ PassIo ShadowResolvePass::io() const {
 
 void ShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  dispatch_per_pixel(cmd, r, *layout_, *pipeline_, set_);
+  compute_.dispatch(cmd, r);
   r.info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   mark("shadow-resolve");
 }
 
-LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps) {
+LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
+    : compute_(r, variant("local-shadow-resolve", local_defines(r)),
+               {"render/local_shadow_resolve.comp", local_defines(r)}, local_resolve_bindings(r)) {
   r.local_info = r.make_image("local-shadow", gpu::ImageKind::image_2d, kInfoFormat, r.width,
                               r.height, 1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   r.local_debug =
       r.make_image("local-shadow-debug", gpu::ImageKind::image_2d, kInfoFormat, r.width, r.height,
                    1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
-  const VkShaderStageFlags cs = VK_SHADER_STAGE_COMPUTE_BIT;
   const auto& req = r.req;
-  std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs},
-                                  {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                                  {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                                  {9, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs},
-                                  {10, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}};
-  for (uint32_t first : {3u, 6u}) {
-    if ((first == 3u ? req.spot_shadow_maps : req.point_shadow_cubes) == 0) continue;
-    b.push_back({first, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, cs});
-    b.push_back({first + 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
-    b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs});
-  }
-  layout_ =
-      std::make_unique<gpu::PipelineLayout>(r.ctx, std::vector<std::vector<gpu::BindingDesc>>{b});
-  const auto all = light_defines(r);
-  const std::vector<shader::Define> defines{all[2], all[3]};
-  r.add_pipeline(variant("local-shadow-resolve", defines),
-                 {{"render/local_shadow_resolve.comp", defines}},
-                 [this, &r](const shader::Spirvs& spirv) {
-                   pipeline_ = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
-                 });
-  set_ = r.pool.allocate(layout_->set_layout(0));
   gpu::DescriptorWriter w;
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(1, r.depth.view(), r.nearest.handle())
@@ -94,7 +98,7 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
         .combined_image(7, maps.point_cubes.view(), r.shadow_compare.handle())
         .combined_image(8, maps.point_cubes.view(), r.raw_depth.handle());
   }
-  w.update(r.ctx, set_);
+  w.update(r.ctx, compute_.set());
   r.report.passes.push_back("local-shadow-resolve: compute");
 }
 
@@ -106,7 +110,7 @@ PassIo LocalShadowResolvePass::io() const {
 void LocalShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
   r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  dispatch_per_pixel(cmd, r, *layout_, *pipeline_, set_);
+  compute_.dispatch(cmd, r);
   r.local_info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   mark("local-shadow-resolve");
