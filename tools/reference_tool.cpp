@@ -38,6 +38,7 @@ void usage(FILE* f) {
       "usage: penumbra-reference [--scene NAME|FILE] [--out DIR] [--size WxH] [--frame N]\n"
       "                          [--samples N] [--initial-samples N] [--no-adaptive] [--seed S]\n"
       "                          [--light NAME]... [--threshold T] [--threads N]\n"
+      "                          [--terminator smooth|geometric]\n"
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
@@ -52,6 +53,9 @@ void usage(FILE* f) {
       "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
       "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
       "  --threads    tracing threads (default: all)\n"
+      "  --terminator where shadow rays start on smooth-shaded meshes: on the smooth surface\n"
+      "               the vertex normals describe (default) or on the flat triangles\n"
+      "               (docs/accuracy.md, the shadow terminator)\n"
       "  --cache      the reference cache (default $PENUMBRA_REFERENCE_CACHE or\n"
       "               ~/.cache/penumbra/reference); --no-cache traces every time\n");
 }
@@ -104,6 +108,14 @@ Options parse(int argc, char** argv) {
       if (v.empty() || *end != '\0' || !(x > 0.0 && x < 1.0))
         throw Error("--threshold " + v + ": expected a number in (0, 1)");
       o.measure.metrics.threshold = x;
+    } else if (a == "--terminator") {
+      const std::string v = value();
+      if (v == "smooth")
+        t.terminator = penumbra::reference::Terminator::smooth;
+      else if (v == "geometric")
+        t.terminator = penumbra::reference::Terminator::geometric;
+      else
+        throw Error("--terminator " + v + ": expected smooth or geometric");
     } else if (a == "--threads")
       t.threads = uint32_t(number(a, value(), 1, 1024));
     else if (a == "--cache")
@@ -181,7 +193,9 @@ int run(int argc, char** argv) {
          << ", \"frame\": " << o.frame << ", \"samples\": " << o.measure.trace.samples
          << ", \"initial_samples\": " << o.measure.trace.initial_samples
          << ", \"adaptive\": " << (o.measure.trace.adaptive ? "true" : "false")
-         << ", \"seed\": " << o.measure.trace.seed
+         << ", \"seed\": " << o.measure.trace.seed << ", \"terminator\": "
+         << (o.measure.trace.terminator == penumbra::reference::Terminator::smooth ? "\"smooth\""
+                                                                                : "\"geometric\"")
          << ", \"threshold\": " << o.measure.metrics.threshold;
   penumbra::reference::write_measurement(m, o.out, header.str());
   for (const auto& l : m.lights) {

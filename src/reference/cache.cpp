@@ -17,7 +17,7 @@ namespace {
 
 constexpr char kMagic[8] = {'P', 'N', 'B', 'R', 'R', 'E', 'F', '1'};
 // Bump when the tracer's results change for the same inputs (sampling, offsets, masks).
-constexpr uint32_t kVersion = 1;
+constexpr uint32_t kVersion = 2;  // 2: the terminator model, the vertex normals in the geometry hash
 
 std::string hex(uint64_t key) {
   char b[17];
@@ -51,6 +51,7 @@ uint64_t cache_key(const Tracer& tracer, const Receivers& receivers, const AreaL
   h.pod(options.initial_samples);
   h.pod(options.adaptive);
   h.pod(options.seed);
+  h.pod(int(options.terminator));
   return h.h;
 }
 

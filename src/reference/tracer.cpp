@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -32,21 +33,40 @@ void basis(const glm::dvec3& w, glm::dvec3& e1, glm::dvec3& e2) {
   e2 = {b, sign + w.y * w.y * a, -w.y};
 }
 
-struct MaskedGeometry {
-  std::vector<glm::vec2> uv;
+// What the tracer keeps of each geometry: the triangles as Embree has them (relative to the
+// origin, float), the world vertex normals (for the terminator offset) and, for masked
+// materials, the uvs and the mask.
+struct Surface {
+  std::vector<glm::vec3> position;
+  std::vector<glm::vec3> normal;  // unit, world orientation
   std::vector<uint32_t> indices;
+  bool masked = false;
+  std::vector<glm::vec2> uv;
   scene::MaskPattern pattern = scene::MaskPattern::none;
   glm::vec2 scale{1.0f};
   float cutoff = 0.5f;
 };
 
-// Embree's occlusion filter for masked materials: a hit where the mask cuts the surface out
-// is rejected and the ray goes on.
-void mask_filter(const RTCFilterFunctionNArguments* args) {
-  const auto* g = static_cast<const MaskedGeometry*>(args->geometryUserPtr);
+// A shadow ray's context: the triangle it starts on, which it ignores (terminator = smooth).
+struct ShadowContext {
+  RTCIntersectContext context;  // first: Embree passes a pointer to it to the filters
+  unsigned self_geometry = RTC_INVALID_GEOMETRY_ID;
+  unsigned self_primitive = RTC_INVALID_GEOMETRY_ID;
+};
+
+// Embree's occlusion filter: a hit on the ray's own triangle, or where a mask cuts the surface
+// out, is rejected and the ray goes on.
+void occlusion_filter(const RTCFilterFunctionNArguments* args) {
+  const auto* g = static_cast<const Surface*>(args->geometryUserPtr);
+  const auto* c = reinterpret_cast<const ShadowContext*>(args->context);
   for (unsigned i = 0; i < args->N; ++i) {
     if (args->valid[i] == 0) continue;
     const unsigned prim = RTCHitN_primID(args->hit, args->N, i);
+    if (RTCHitN_geomID(args->hit, args->N, i) == c->self_geometry && prim == c->self_primitive) {
+      args->valid[i] = 0;
+      continue;
+    }
+    if (!g->masked) continue;
     const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
     const glm::vec2 uv = (1.0f - u - v) * g->uv[g->indices[3 * prim]] +
                          u * g->uv[g->indices[3 * prim + 1]] + v * g->uv[g->indices[3 * prim + 2]];
@@ -192,7 +212,7 @@ struct Tracer::Impl {
   glm::dvec3 origin{0.0};
   size_t triangles = 0;
   uint64_t hash = 0;
-  std::vector<std::unique_ptr<MaskedGeometry>> masked;
+  std::vector<std::unique_ptr<Surface>> surfaces;  // by Embree geometry id
 
   ~Impl() {
     if (scene) rtcReleaseScene(scene);
@@ -239,6 +259,15 @@ Tracer::Tracer(const scene::Scene& s, glm::dvec3 origin) : impl_(std::make_uniqu
                        mesh.indices.begin() + long(t) + 3);
     }
     if (indices.empty()) continue;
+    auto surface = std::make_unique<Surface>();
+    // Normals transform with the inverse transpose; a degenerate one is left zero (no offset).
+    const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(model)));
+    surface->normal.resize(mesh.vertices.size());
+    for (size_t v = 0; v < mesh.vertices.size(); ++v) {
+      const glm::dvec3 n = normal_matrix * glm::dvec3(mesh.vertices[v].normal);
+      const double len = glm::length(n);
+      surface->normal[v] = len > 0.0 && std::isfinite(len) ? glm::vec3(n / len) : glm::vec3(0.0f);
+    }
     RTCGeometry g = rtcNewGeometry(m.device, RTC_GEOMETRY_TYPE_TRIANGLE);
     auto* vb = static_cast<float*>(rtcSetNewGeometryBuffer(
         g, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, sizeof(float) * 3, positions.size()));
@@ -253,26 +282,29 @@ Tracer::Tracer(const scene::Scene& s, glm::dvec3 origin) : impl_(std::make_uniqu
     std::memcpy(ib, indices.data(), indices.size() * sizeof(uint32_t));
     hash.bytes(positions.data(), positions.size() * sizeof(glm::vec3));
     hash.bytes(indices.data(), indices.size() * sizeof(uint32_t));
+    hash.bytes(surface->normal.data(), surface->normal.size() * sizeof(glm::vec3));
     if (mat.alpha == scene::AlphaMode::masked) {
-      auto mg = std::make_unique<MaskedGeometry>();
-      mg->uv.reserve(mesh.vertices.size());
-      for (const auto& v : mesh.vertices) mg->uv.push_back(v.uv);
-      mg->indices = indices;
-      mg->pattern = mat.mask;
-      mg->scale = mat.mask_scale;
-      mg->cutoff = mat.alpha_cutoff;
-      hash.bytes(mg->uv.data(), mg->uv.size() * sizeof(glm::vec2));
-      hash.pod(int(mg->pattern));
-      hash.pod(mg->scale);
-      hash.pod(mg->cutoff);
-      rtcSetGeometryUserData(g, mg.get());
-      rtcSetGeometryOccludedFilterFunction(g, mask_filter);
-      m.masked.push_back(std::move(mg));
+      surface->masked = true;
+      surface->uv.reserve(mesh.vertices.size());
+      for (const auto& v : mesh.vertices) surface->uv.push_back(v.uv);
+      surface->pattern = mat.mask;
+      surface->scale = mat.mask_scale;
+      surface->cutoff = mat.alpha_cutoff;
+      hash.bytes(surface->uv.data(), surface->uv.size() * sizeof(glm::vec2));
+      hash.pod(int(surface->pattern));
+      hash.pod(surface->scale);
+      hash.pod(surface->cutoff);
     }
+    surface->position = std::move(positions);
+    surface->indices = std::move(indices);
+    rtcSetGeometryUserData(g, surface.get());
+    rtcSetGeometryOccludedFilterFunction(g, occlusion_filter);
     rtcCommitGeometry(g);
-    rtcAttachGeometry(m.scene, g);
+    const unsigned id = rtcAttachGeometry(m.scene, g);
     rtcReleaseGeometry(g);
-    m.triangles += indices.size() / 3;
+    m.triangles += surface->indices.size() / 3;
+    if (m.surfaces.size() <= id) m.surfaces.resize(id + 1);
+    m.surfaces[id] = std::move(surface);
   }
   rtcCommitScene(m.scene);
   if (const auto e = embree_error(m.device); !e.empty())
@@ -343,9 +375,8 @@ struct LightSampler {
   }
 };
 
-bool occluded(RTCScene scene, const glm::dvec3& org, const glm::dvec3& dir, double tfar) {
-  RTCIntersectContext context;
-  rtcInitIntersectContext(&context);
+bool occluded(RTCScene scene, ShadowContext& context, const glm::dvec3& org, const glm::dvec3& dir,
+              double tfar) {
   RTCRay ray{};
   ray.org_x = float(org.x);
   ray.org_y = float(org.y);
@@ -357,9 +388,49 @@ bool occluded(RTCScene scene, const glm::dvec3& org, const glm::dvec3& dir, doub
   ray.tfar = std::isfinite(tfar) ? float(tfar) : std::numeric_limits<float>::infinity();
   ray.mask = 0xffffffffu;
   ray.flags = 0;
-  rtcOccluded1(scene, &context, &ray);
+  rtcOccluded1(scene, &context.context, &ray);
   return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
 }
+
+// The caster triangle under receiver p (unit normal n): a short ray from above p down the
+// normal, `window` metres either side of it. False when p is on no caster (a receiver that
+// casts no shadow, or a reconstruction off by more than the window).
+bool triangle_under(RTCScene scene, const glm::dvec3& p, const glm::dvec3& n, double window,
+                    RTCRayHit& rh) {
+  RTCIntersectContext context;
+  rtcInitIntersectContext(&context);
+  rh = RTCRayHit{};
+  const glm::dvec3 org = p + n * window;
+  rh.ray.org_x = float(org.x);
+  rh.ray.org_y = float(org.y);
+  rh.ray.org_z = float(org.z);
+  rh.ray.dir_x = float(-n.x);
+  rh.ray.dir_y = float(-n.y);
+  rh.ray.dir_z = float(-n.z);
+  rh.ray.tnear = 0.0f;
+  rh.ray.tfar = float(2.0 * window);
+  rh.ray.mask = 0xffffffffu;
+  rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+  rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+  rtcIntersect1(scene, &context, &rh);
+  return rh.hit.geomID != RTC_INVALID_GEOMETRY_ID;
+}
+
+}  // namespace
+
+glm::dvec3 terminator_offset(const std::array<glm::dvec3, 3>& vertex,
+                             const std::array<glm::dvec3, 3>& normal, const glm::dvec3& p,
+                             const glm::dvec3& barycentric) {
+  glm::dvec3 offset(0.0);
+  for (int k = 0; k < 3; ++k) {
+    // Below vertex k's tangent plane: move up onto it; above it: stay (outward only).
+    const double below = std::min(0.0, glm::dot(p - vertex[k], normal[k]));
+    offset -= barycentric[k] * below * normal[k];
+  }
+  return offset;
+}
+
+namespace {
 
 void print_progress(const std::string& label, size_t done, size_t total, double elapsed) {
   const double f = total ? double(done) / double(total) : 1.0;
@@ -389,6 +460,7 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
     ls.centre_rel = light.position - impl_->origin;
   }
   const bool hard = light.hard();
+  const bool smooth = options.terminator == Terminator::smooth;
   const uint32_t max_samples = hard ? 1 : options.samples;
   const uint32_t initial = std::clamp(options.initial_samples, 1u, max_samples);
 
@@ -422,10 +494,34 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
         // Offset toward the light's side of the surface.
         glm::dvec3 nrm = receivers.normal[i];
         if (glm::dot(nrm, to_centre) < 0.0) nrm = -nrm;
-        const glm::dvec3 org = p + nrm * ray_offset(p);
+        ShadowContext context;
+        rtcInitIntersectContext(&context.context);
+        glm::dvec3 surface_point = p;
+        RTCRayHit rh;
+        if (smooth && triangle_under(scene, p, receivers.normal[i], 16.0 * ray_offset(p), rh)) {
+          const Surface& surface = *impl_->surfaces.at(rh.hit.geomID);
+          const uint32_t* tri = &surface.indices[3 * size_t{rh.hit.primID}];
+          const glm::dvec3 b(1.0 - double(rh.hit.u) - double(rh.hit.v), rh.hit.u, rh.hit.v);
+          std::array<glm::dvec3, 3> v, nv;
+          glm::dvec3 smooth_normal(0.0);
+          for (int k = 0; k < 3; ++k) {
+            v[k] = glm::dvec3(surface.position[tri[k]]);
+            nv[k] = glm::dvec3(surface.normal[tri[k]]);
+            smooth_normal += b[k] * nv[k];
+          }
+          // Only where the light is on the smooth surface's outer side; behind it the surface
+          // shadows itself, and the flat triangle's answer stands.
+          if (glm::dot(smooth_normal, to_centre) > 0.0) {
+            const glm::dvec3 on_triangle = b[0] * v[0] + b[1] * v[1] + b[2] * v[2];
+            surface_point = p + terminator_offset(v, nv, on_triangle, b);
+            context.self_geometry = rh.hit.geomID;
+            context.self_primitive = rh.hit.primID;
+          }
+        }
+        const glm::dvec3 org = surface_point + nrm * ray_offset(p);
         uint32_t visible = 0, count = 0;
         if (hard) {
-          visible = occluded(scene, org, to_centre, dist) ? 0 : 1;
+          visible = occluded(scene, context, org, to_centre, dist) ? 0 : 1;
           count = 1;
         } else {
           const uint64_t seed = detail::mix64(options.seed ^ detail::mix64(i));
@@ -436,7 +532,7 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
             glm::dvec3 dir;
             double tfar;
             ls.sample(sobol_owen(count, seed), to_centre, dist, b1, b2, dir, tfar);
-            if (!occluded(scene, org, dir, tfar)) ++visible;
+            if (!occluded(scene, context, org, dir, tfar)) ++visible;
           }
         }
         local_rays += count;

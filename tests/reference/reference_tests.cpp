@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cstring>
 #include <cmath>
 #include <cstdio>
@@ -207,6 +208,125 @@ TEST(ReferenceClosedForm, InsideAClosedBoxIsExactlyDark) {
     const auto v = tracer.trace(r, light, exact_options(256));
     for (size_t i = 0; i < v.value.size(); ++i) ASSERT_EQ(v.value[i], 0.0f) << "receiver " << i;
   }
+}
+
+// ---- the shadow terminator ---------------------------------------------------------------------
+TEST(ReferenceTerminator, OffsetIsZeroOnFlatTrianglesAndAtCornersAndMovesOutOnCurvedOnes) {
+  const std::array<glm::dvec3, 3> v{glm::dvec3(0, 0, 0), glm::dvec3(1, 0, 0), glm::dvec3(0, 0, 1)};
+  const std::array<glm::dvec3, 3> flat{glm::dvec3(0, 1, 0), glm::dvec3(0, 1, 0),
+                                       glm::dvec3(0, 1, 0)};
+  // Normals tilted away from the centre, as on a coarse sphere.
+  const glm::dvec3 centre = (v[0] + v[1] + v[2]) / 3.0;
+  std::array<glm::dvec3, 3> curved;
+  for (int k = 0; k < 3; ++k)
+    curved[k] = glm::normalize(glm::dvec3(0, 1, 0) + 0.5 * (v[k] - centre));
+  std::mt19937 rng(21);
+  std::uniform_real_distribution<double> u(0.0, 1.0);
+  for (int i = 0; i < 200; ++i) {
+    double a = u(rng), b = u(rng);
+    if (a + b > 1.0) a = 1.0 - a, b = 1.0 - b;
+    const glm::dvec3 bary(1.0 - a - b, a, b);
+    const glm::dvec3 p = bary[0] * v[0] + bary[1] * v[1] + bary[2] * v[2];
+    EXPECT_EQ(terminator_offset(v, flat, p, bary), glm::dvec3(0.0));
+    const glm::dvec3 o = terminator_offset(v, curved, p, bary);
+    EXPECT_GE(o.y, 0.0);  // out of the triangle, to the normals' side
+    if (std::min({bary[0], bary[1], bary[2]}) > 0.05) {
+      EXPECT_GT(o.y, 0.0);
+    }
+  }
+  for (int k = 0; k < 3; ++k) {
+    glm::dvec3 bary(0.0);
+    bary[k] = 1.0;
+    EXPECT_EQ(terminator_offset(v, curved, v[k], bary), glm::dvec3(0.0)) << "corner " << k;
+  }
+  // On an edge the opposite corner has no weight: a neighbour sharing the edge (its third
+  // corner anywhere, with any normal) gives the same offset, so the surface is continuous.
+  std::array<glm::dvec3, 3> w = v, wn = curved;
+  w[2] = glm::dvec3(0.3, -0.2, -1.0);
+  wn[2] = glm::normalize(glm::dvec3(0.2, 1.0, -0.6));
+  const glm::dvec3 edge_bary(0.4, 0.6, 0.0);
+  const glm::dvec3 p = 0.4 * v[0] + 0.6 * v[1];
+  EXPECT_EQ(terminator_offset(v, curved, p, edge_bary), terminator_offset(w, wn, p, edge_bary));
+}
+
+// A coarse sphere (12 x 6 facets) with smooth normals under a hard sun. Receivers on its
+// facets where the interpolated normal faces the sun but the facet itself faces away: the
+// shading lights them, the flat triangles shadow them. `smooth` (the default) traces from the
+// smooth surface and finds them lit, as on the sphere the normals describe; `geometric` keeps
+// the facets' self-shadowing. A flat-shaded box gives the same either way.
+TEST(ReferenceTerminator, SmoothTerminatorLightsTheSmoothSurfaceTheNormalsDescribe) {
+  const scene::Mesh ball = scene::make_sphere(1.0f, 12, 6);
+  scene::Scene s;
+  add(s, ball, translate({0, 2, 0}));
+  const glm::dvec3 to_sun = glm::normalize(glm::dvec3(1.0, 0.13, 0.21));
+  std::vector<glm::dvec3> points, normals, back_points, back_normals;
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(0.05, 0.95);
+  for (size_t t = 0; t + 2 < ball.indices.size(); t += 3) {
+    const auto& a = ball.vertices[ball.indices[t]];
+    const auto& b = ball.vertices[ball.indices[t + 1]];
+    const auto& c = ball.vertices[ball.indices[t + 2]];
+    const glm::dvec3 face = glm::cross(glm::dvec3(b.position - a.position),
+                                       glm::dvec3(c.position - a.position));
+    if (!(glm::length(face) > 1e-9)) continue;
+    const bool faces_away = glm::dot(face, to_sun) < 0.0;
+    for (int i = 0; i < 100; ++i) {
+      double x = u(rng), y = u(rng);
+      if (x + y > 0.95) x = 0.95 - x, y = 0.95 - y;
+      x = std::max(x, 0.02), y = std::max(y, 0.02);
+      const double z = 1.0 - x - y;
+      const glm::dvec3 n = glm::normalize(z * glm::dvec3(a.normal) + x * glm::dvec3(b.normal) +
+                                          y * glm::dvec3(c.normal));
+      const glm::dvec3 p = glm::dvec3(0, 2, 0) + z * glm::dvec3(a.position) +
+                           x * glm::dvec3(b.position) + y * glm::dvec3(c.position);
+      if (glm::dot(n, to_sun) < -0.1) {  // the far side
+        back_points.push_back(p);
+        back_normals.push_back(n);
+      }
+      if (!faces_away || glm::dot(n, to_sun) < 0.05) continue;  // not at the terminator
+      points.push_back(p);
+      normals.push_back(n);
+    }
+  }
+  ASSERT_GT(points.size(), 100u);
+  const Tracer tracer(s, glm::dvec3(0.0));
+  const auto r = receivers_from_points(points, normals, glm::dvec3(0.0));
+  TraceOptions smooth = exact_options(1), geometric = smooth;
+  geometric.terminator = Terminator::geometric;
+  const auto vs = tracer.trace(r, sun_light(to_sun, 0.0), smooth);
+  const auto vg = tracer.trace(r, sun_light(to_sun, 0.0), geometric);
+  size_t lit_smooth = 0, lit_geometric = 0;
+  for (size_t i = 0; i < points.size(); ++i) {
+    lit_smooth += vs.value[i] == 1.0f;
+    lit_geometric += vg.value[i] == 1.0f;
+  }
+  EXPECT_EQ(lit_smooth, points.size()) << "of " << points.size();
+  EXPECT_EQ(lit_geometric, 0u) << "of " << points.size();
+
+  // The far side (interpolated normal away from the sun) stays dark either way.
+  ASSERT_GT(back_points.size(), 500u);
+  const auto rb = receivers_from_points(back_points, back_normals, glm::dvec3(0.0));
+  for (const auto& o : {smooth, geometric}) {
+    const auto vb = tracer.trace(rb, sun_light(to_sun, 0.0), o);
+    for (float x : vb.value) EXPECT_EQ(x, 0.0f);
+  }
+
+  // A flat-shaded box: the same bits with either model.
+  scene::Scene boxes;
+  add(boxes, scene::make_box({1.0f, 1.0f, 1.0f}), translate({0, 0.5, 0}));
+  add(boxes, scene::make_box({0.4f, 2.0f, 0.4f}), translate({1.0, 1.0, 0.3}));
+  const Tracer box_tracer(boxes, glm::dvec3(0.0));
+  std::vector<glm::dvec3> ground, up;
+  for (int i = 0; i < 400; ++i) {
+    ground.emplace_back(-2.0 + 4.0 * u(rng), 1.0, -2.0 + 4.0 * u(rng));  // the top and around
+    up.emplace_back(0, 1, 0);
+  }
+  const auto rg = receivers_from_points(ground, up, glm::dvec3(0.0));
+  TraceOptions soft_smooth = exact_options(64), soft_geometric = soft_smooth;
+  soft_geometric.terminator = Terminator::geometric;
+  const auto a = box_tracer.trace(rg, sun_light({-0.6, 1.0, 0.2}, 5.0), soft_smooth);
+  const auto b = box_tracer.trace(rg, sun_light({-0.6, 1.0, 0.2}, 5.0), soft_geometric);
+  EXPECT_EQ(a.value, b.value);
 }
 
 // ---- an alpha-masked plane ---------------------------------------------------------------------

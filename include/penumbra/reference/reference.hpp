@@ -5,6 +5,7 @@
 // (spot and point lights) that a receiver sees past the shadow casters. docs/accuracy.md
 // describes the method, the sampling and its noise.
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <glm/glm.hpp>
@@ -46,6 +47,18 @@ struct AreaLight {
 // Throws penumbra::Error naming the light when the scene does not have it.
 AreaLight area_light(const scene::Scene& scene, const LightRef& light);
 
+// Where the shadow rays of a receiver on a smooth-shaded mesh start.
+//   smooth:    on the smooth surface the interpolated normals describe: the point is moved
+//              out of its flat triangle by the shadow-terminator offset (Hanika 2021,
+//              "Hacking the shadow terminator": the barycentric blend of its projections onto
+//              the three vertices' tangent planes, outward only), and the rays ignore the
+//              triangle they start on. What the shading (n·l with the interpolated normal)
+//              and the shadow maps (biased along that normal) assume; the default.
+//   geometric: on the flat triangle: the facets of a low-poly mesh shadow each other near the
+//              terminator, where the interpolated normal still faces the light.
+// Flat meshes (vertex normals equal to the face normal) give the same result either way.
+enum class Terminator { smooth, geometric };
+
 struct TraceOptions {
   uint32_t samples = 256;         // rays per receiver where visibility is partial (>= 1)
   uint32_t initial_samples = 16;  // adaptive: stop after these when they all agree
@@ -54,6 +67,7 @@ struct TraceOptions {
   uint32_t threads = 0;  // 0: every hardware thread
   bool progress = false;  // a progress bar on stderr when it is a terminal
   std::string progress_label = "reference";
+  Terminator terminator = Terminator::smooth;
 };
 
 // Per receiver. Non-receivers (sky, NaN input) hold NaN value and 0 samples.
@@ -122,6 +136,15 @@ class Tracer {
 inline constexpr double kRayOffsetRelative = 2e-5;
 inline constexpr double kRayOffsetMin = 1e-5;
 double ray_offset(const glm::dvec3& relative_position);
+
+// The shadow-terminator offset (Terminator::smooth) of point p on a triangle with the given
+// corners, unit vertex normals (turned to the side the rays leave from) and p's barycentric
+// coordinates: the barycentric blend of p's projections onto the three tangent planes, each
+// only where p lies below that plane. Zero on a flat triangle (normals equal to the face
+// normal) and at the corners; continuous across shared edges.
+glm::dvec3 terminator_offset(const std::array<glm::dvec3, 3>& vertex,
+                             const std::array<glm::dvec3, 3>& normal, const glm::dvec3& p,
+                             const glm::dvec3& barycentric);
 
 // ---- sampling (exposed for tests) -------------------------------------------------------------
 // Point i of the 2D Sobol (0,2)-sequence, Owen-scrambled by hashing (a nested uniform scramble
