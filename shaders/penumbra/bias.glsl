@@ -83,6 +83,19 @@ vec3 normal_offset(vec3 normal, vec3 to_light, float texel_world_size, float off
   return rn * (inversesqrt(nn) * distance);
 }
 
+// Returns the normal offset, in texels, for a filter whose taps reach reach_texels from the
+// receiver's own texel: base_texels (shadows.normal_offset_texels, chosen for filters that reach
+// one texel: hard and PCF up to radius 1) plus the reach beyond that one texel. Moved off its
+// surface by k texels (normal_offset), a receiver lies k * texel * tan(theta) in front of its own
+// plane along the light, and the plane's depth changes by d * texel * tan(theta) across d
+// texels: with k >= d the plane stays behind every tap at any angle theta, so a wide kernel does
+// not shadow its own receiver. NaN or negative parameters count as 0.
+float filter_normal_offset_texels(float base_texels, float reach_texels) {
+  float base = penumbra_is_nan(base_texels) ? 0.0 : max(base_texels, 0.0);
+  float reach = penumbra_is_nan(reach_texels) ? 0.0 : max(reach_texels, 0.0);
+  return base + max(reach - 1.0, 0.0);
+}
+
 // Returns min(constant_bias + slope_scale * tan(theta), max_bias) with cos(theta) = n_dot_l
 // (clamped to at most 1); max_bias when n_dot_l <= 0 (back face or grazing), NaN, or below
 // FLT_MIN, where tan(theta) is unbounded. Never NaN or infinite for finite parameters. The result

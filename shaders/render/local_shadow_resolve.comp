@@ -39,6 +39,22 @@ layout(set = 0, binding = 8) uniform samplerCubeArray point_depth;          // n
 layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D local_shadow;
 layout(set = 0, binding = 10, rgba16f) uniform writeonly image2D local_debug;
 
+// The light's own filter (LightGpu.params.w), else the scene's.
+uint light_filter(LightGpu light) {
+  return light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
+}
+
+// The normal offset for the light's filter: wider than one texel, it grows with the reach
+// (filter_normal_offset_texels).
+float normal_offset_texels(LightGpu light) {
+  uint mode = light_filter(light);
+  float reach = mode == kFilterPcf       ? frame.filter_params.x
+                : mode == kFilterPoisson ? frame.filter_params.w
+                : mode == kFilterPcss    ? frame.pcss.z
+                                         : 0.0;
+  return filter_normal_offset_texels(frame.bias.x, reach);
+}
+
 PcssLocalParams local_params(float radius, float texel_at_unit, float near, float far) {
   PcssLocalParams p;
   p.light_radius = radius;
@@ -63,7 +79,7 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   float texel_world = perspective_texel_world_size(s.params.z, axial);
   debug = vec4(0.0, texel_world, n_dot_l > 0.0 ? 0.0 : -1.0, 1.0);
   if (!(n_dot_l > 0.0)) return 0.0;
-  vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
+  vec3 q = p + normal_offset(n, l, texel_world, normal_offset_texels(light));
   float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
   q = bias_toward_light(q, l, min(bias, 0.5 * dist));
   vec3 coord = world_to_shadow_coord(s.view_proj, q);
@@ -85,8 +101,7 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
     float zb = linearize_depth(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
-  // The light's own filter (LightGpu.params.w), else the scene's.
-  uint filter_mode = light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
+  uint filter_mode = light_filter(light);
   if (filter_mode == kFilterHard) return pcf_grid_array(spot_compare, coord, map, 0, texel);
   if (filter_mode == kFilterPcf)
     return pcf_grid_array(spot_compare, coord, map, int(frame.filter_params.x), texel);
@@ -118,7 +133,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   debug = vec4(1.0 + cube_face_of(p - s.position.xyz), texel_world, n_dot_l > 0.0 ? 0.0 : -1.0,
                1.0);
   if (!(n_dot_l > 0.0)) return 0.0;
-  vec3 q = p + normal_offset(n, l, texel_world, frame.bias.x);
+  vec3 q = p + normal_offset(n, l, texel_world, normal_offset_texels(light));
   float bias = world_depth_bias(n_dot_l, frame.bias.z, frame.bias.y, frame.bias.w, texel_world);
   q = bias_toward_light(q, l, min(bias, 0.5 * dist));
   vec3 v = q - s.position.xyz;
@@ -140,8 +155,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
     float zb = cube_stored_distance(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
-  // The light's own filter (LightGpu.params.w), else the scene's.
-  uint filter_mode = light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
+  uint filter_mode = light_filter(light);
   if (filter_mode == kFilterHard) return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
   if (filter_mode == kFilterPcf)
     return pcf_cube_array(point_compare, v, map, ref, int(frame.filter_params.x), resolution);

@@ -27,7 +27,21 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   // World-unit biases (bias.glsl): the normal offset in this cascade's texels, then the receiver
   // moves towards the sun by the depth bias in metres (the cascade's depth is linear, so this is
   // exactly bias / depth range in depth units).
-  vec3 offset = normal_offset(n, to_light, texel_world, frame.bias.x);
+  // The offset grows with the filter's reach beyond one texel (filter_normal_offset_texels).
+  uint filter_mode = frame.mode.z;
+  bool constant_width =
+      frame.filter_world.x != 0.0 && (filter_mode == kFilterPcf || filter_mode == kFilterPoisson);
+  float reach = filter_mode == kFilterPcf       ? frame.filter_params.x
+                : filter_mode == kFilterPoisson ? frame.filter_params.w
+                : filter_mode == kFilterPcss    ? shadow.pcss.z
+                                                : 0.0;
+  // Constant width in world units: a Poisson disk whose radius is fixed in cascade 0's texels
+  // and so shrinks, in texels, in the coarser cascades.
+  float world_radius = filter_mode == kFilterPcf ? frame.filter_params.x + 0.5 : frame.filter_params.w;
+  world_radius *= shadow.cascades[0].params.x / texel_world;
+  if (constant_width) reach = world_radius;
+  vec3 offset =
+      normal_offset(n, to_light, texel_world, filter_normal_offset_texels(frame.bias.x, reach));
   float bias = world_depth_bias(dot(n, to_light), frame.bias.z, frame.bias.y, frame.bias.w,
                                 texel_world);
   vec3 coord =
@@ -54,15 +68,9 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
                               reverse_z, average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
-  uint filter_mode = frame.mode.z;
-  if (frame.filter_world.x != 0.0 && (filter_mode == kFilterPcf || filter_mode == kFilterPoisson)) {
-    // Constant width in world units: a Poisson disk whose radius is fixed in cascade 0's texels
-    // and so shrinks, in texels, in the coarser cascades.
-    float radius = filter_mode == kFilterPcf ? frame.filter_params.x + 0.5 : frame.filter_params.w;
-    radius *= shadow.cascades[0].params.x / texel_world;
-    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), radius,
+  if (constant_width)
+    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), world_radius,
                              rotation, texel);
-  }
   if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
   if (filter_mode == kFilterPcf)
     return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);
