@@ -232,16 +232,26 @@ Mesh make_box(glm::vec3 size) {
       {{0, 1, 0}, {0, 0, -1}},
       {{0, -1, 0}, {0, 0, 1}},
   }};
-  for (const auto& [n, v_axis] : faces) {
+  for (size_t f = 0; f < faces.size(); ++f) {
+    const auto& [n, v_axis] = faces[f];
     const glm::vec3 u_axis = glm::cross(v_axis, n);
     const glm::vec3 c = n * half;
     const glm::vec3 u = u_axis * half;  // component-wise: half-extent along u's axis
     const glm::vec3 v = v_axis * half;
-    // uv (0, 0) is the top-left corner of the face (top = +v).
-    const std::uint32_t a = add_vertex(mesh, c - u - v, n, {0.0f, 1.0f});
-    add_vertex(mesh, c + u - v, n, {1.0f, 1.0f});
-    add_vertex(mesh, c + u + v, n, {1.0f, 0.0f});
-    add_vertex(mesh, c - u + v, n, {0.0f, 0.0f});
+    // The uvs are those of the +X, +Z or +Y face (the pair's first) at the same point seen
+    // through the box: uv (0, 0) is that face's top-left corner (top = +v). A mask then cuts
+    // through the box, its holes in the same place on both faces (from behind, the image is
+    // mirrored, as through a window).
+    const glm::vec3 ref_n = faces[f & ~size_t{1}].first, ref_v = faces[f & ~size_t{1}].second;
+    const glm::vec3 ref_u = glm::cross(ref_v, ref_n);
+    auto uv = [&](glm::vec3 p) {
+      return glm::vec2(0.5f + 0.5f * glm::dot(p, ref_u) / glm::dot(half, glm::abs(ref_u)),
+                       0.5f - 0.5f * glm::dot(p, ref_v) / glm::dot(half, glm::abs(ref_v)));
+    };
+    const std::uint32_t a = add_vertex(mesh, c - u - v, n, uv(c - u - v));
+    add_vertex(mesh, c + u - v, n, uv(c + u - v));
+    add_vertex(mesh, c + u + v, n, uv(c + u + v));
+    add_vertex(mesh, c - u + v, n, uv(c - u + v));
     add_triangle(mesh, a, a + 1, a + 2);
     add_triangle(mesh, a, a + 2, a + 3);
   }

@@ -102,6 +102,32 @@ TEST(ProceduralMesh, BoxIsClosedWithOutwardNormals) {
   EXPECT_TRUE(found);
 }
 
+// A mask cuts through a box: each corner of a face has the uv of the same corner on the
+// opposite face (the pair's axis dropped), so a masked panel's holes go through both faces.
+// With the faces' own uvs the back's pattern was the front's mirror image, and a striped fence
+// cast an almost solid shadow.
+TEST(ProceduralMesh, BoxMasksCutThrough) {
+  const Mesh box = make_box(glm::vec3(4.0f, 1.0f, 0.03f));
+  size_t matched = 0;
+  for (const Vertex& a : box.vertices) {
+    for (const Vertex& b : box.vertices) {
+      if (a.normal != -b.normal) continue;
+      const glm::vec3 axis = glm::abs(a.normal);
+      const glm::vec3 across = (glm::vec3(1.0f) - axis);
+      if (a.position * across != b.position * across) continue;  // not the same corner
+      EXPECT_EQ(a.uv, b.uv) << "corner " << a.position.x << ", " << a.position.y << ", "
+                            << a.position.z;
+      ++matched;
+    }
+  }
+  EXPECT_EQ(matched, 24u);  // every corner of every face has its partner
+  // Each face still spans the whole [0, 1]^2.
+  for (const Vertex& v : box.vertices) {
+    EXPECT_TRUE(v.uv.x == 0.0f || v.uv.x == 1.0f) << v.uv.x;
+    EXPECT_TRUE(v.uv.y == 0.0f || v.uv.y == 1.0f) << v.uv.y;
+  }
+}
+
 TEST(ProceduralMesh, PlaneFacesUp) {
   const Mesh plane = make_plane(4.0f, 2.0f, 3);
   expect_valid_mesh(plane);
