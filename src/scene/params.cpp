@@ -286,7 +286,8 @@ std::vector<Param> make_params() {
        field<&S::shadows, &ShadowSettings::normal_offset_texels>(),
        A::frame,
        "texels: the receiver moves along its normal by this many shadow-map texels (their size "
-       "at the receiver, for every light type), scaled by sin(angle to the light)",
+       "at the receiver, for every light type), scaled by sin(angle to the light), plus the "
+       "filter's reach beyond one texel (PCF or Poisson radius - 1)",
        {},
        slider(0.0, 4.0)},
       {"shadows.slope_bias",
