@@ -2,8 +2,7 @@
 // light PCSS radii (shaders/penumbra/local_shadow.glsl) against closed forms written here, and
 // PCSS's continuity at its degenerate ends (shaders/penumbra/pcss.glsl): angular diameter 0, a
 // receiver at the light's near plane, and a blocker search clamped below the filter radius.
-// The cube-map filters need samplerCubeArray bindings, which the harness does not offer yet; the
-// reference GPU tests measure them on the shipped indoor and space scenes instead.
+// The cube-map filters have their own file, cube_shadow_tests.cpp.
 #include <gtest/gtest.h>
 
 #include <algorithm>

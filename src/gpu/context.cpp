@@ -80,6 +80,7 @@ DeviceInfo describe(VkPhysicalDevice pd, uint32_t index) {
   VkPhysicalDeviceFeatures features{};
   vkGetPhysicalDeviceFeatures(pd, &features);
   info.depth_clamp = features.depthClamp == VK_TRUE;
+  info.image_cube_array = features.imageCubeArray == VK_TRUE;
   VkFormatProperties fp{};
   vkGetPhysicalDeviceFormatProperties(pd, VK_FORMAT_D32_SFLOAT, &fp);
   info.linear_filter_d32 =

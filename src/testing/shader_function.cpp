@@ -26,6 +26,10 @@ const char* glsl_name(ResourceKind kind) {
       return "sampler2D";
     case ResourceKind::sampler2d_array:
       return "sampler2DArray";
+    case ResourceKind::sampler_cube_array_shadow:
+      return "samplerCubeArrayShadow";
+    case ResourceKind::sampler_cube_array:
+      return "samplerCubeArray";
   }
   return "?";
 }
@@ -196,6 +200,10 @@ bool kind_matches(ResourceKind kind, const Texture& t) {
       return !compare && vk == gpu::ImageKind::image_2d;
     case ResourceKind::sampler2d_array:
       return !compare && vk == gpu::ImageKind::image_2d_array;
+    case ResourceKind::sampler_cube_array_shadow:
+      return t.depth && compare && vk == gpu::ImageKind::cube_array;
+    case ResourceKind::sampler_cube_array:
+      return !compare && vk == gpu::ImageKind::cube_array;
   }
   return false;
 }
@@ -204,7 +212,8 @@ std::string describe_texture(const Texture& t) {
   const auto& d = t.image.desc();
   std::string kind = d.kind == gpu::ImageKind::image_2d         ? "2D"
                      : d.kind == gpu::ImageKind::image_2d_array ? "2D array"
-                                                                : "cube";
+                     : d.kind == gpu::ImageKind::cube           ? "cube"
+                                                                : "cube array";
   return kind + (t.depth ? " depth" : " float") + " texture with a " +
          (t.sampler.desc().compare ? "compare" : "non-compare") + " sampler";
 }
@@ -489,13 +498,17 @@ std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
                                             std::span<const float> depth) {
   auto& ctx = shared_context();
   gpu::ImageDesc d;
-  d.kind = desc.cube                         ? gpu::ImageKind::cube
-           : (desc.array || desc.layers > 1) ? gpu::ImageKind::image_2d_array
-                                             : gpu::ImageKind::image_2d;
+  const bool array = desc.array || desc.layers > 1;
+  d.kind = desc.cube ? (array ? gpu::ImageKind::cube_array : gpu::ImageKind::cube)
+           : array   ? gpu::ImageKind::image_2d_array
+                     : gpu::ImageKind::image_2d;
   d.format = VK_FORMAT_D32_SFLOAT;
   d.width = desc.width;
   d.height = desc.height;
-  d.layers = desc.cube ? 6 : desc.layers;
+  d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
+  if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
+    throw Error("DepthTextureDesc: device " + ctx.info().name +
+                " has no cube-map arrays (imageCubeArray)");
   d.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
   if (!desc.sampler.compare && desc.sampler.filter == VK_FILTER_LINEAR &&
       !ctx.info().linear_filter_d32) {

@@ -40,6 +40,7 @@ struct DeviceInfo {
   uint32_t queue_family = 0;
   uint32_t timestamp_valid_bits = 0;
   bool depth_clamp = false;
+  bool image_cube_array = false;  // imageCubeArray: cube-map arrays (enabled when supported)
   bool linear_filter_d32 = false;  // VK_FORMAT_D32_SFLOAT supports linear filtering
 };
 

@@ -48,7 +48,9 @@ enum class ResourceKind {
   sampler2d_array_shadow,
   sampler_cube_shadow,
   sampler2d,
-  sampler2d_array
+  sampler2d_array,
+  sampler_cube_array_shadow,
+  sampler_cube_array
 };
 const char* glsl_name(ResourceKind kind);
 
@@ -61,6 +63,12 @@ struct Sampler2DArrayShadow {
 };
 struct SamplerCubeShadow {
   static constexpr ResourceKind kind = ResourceKind::sampler_cube_shadow;
+};
+struct SamplerCubeArrayShadow {
+  static constexpr ResourceKind kind = ResourceKind::sampler_cube_array_shadow;
+};
+struct SamplerCubeArray {  // raw depths (a non-compare sampler on a depth cube array)
+  static constexpr ResourceKind kind = ResourceKind::sampler_cube_array;
 };
 struct Sampler2D {
   static constexpr ResourceKind kind = ResourceKind::sampler2d;
@@ -77,8 +85,10 @@ struct Texture {
 };
 
 // A D32_SFLOAT depth texture (layers == 1: 2D; > 1 or array = true: 2D array; cube = true: 6
-// faces) filled from `depth` (layer-major, row-major), sampled through `sampler` (compare
-// samplers for the *Shadow kinds). Default: compare LESS_OR_EQUAL, nearest, clamp to edge.
+// faces; cube with layers > 1 or array = true: a cube array of `layers` cubes, 6 faces each,
+// layer 6 c + f is face f of cube c) filled from `depth` (layer-major, row-major), sampled
+// through `sampler` (compare samplers for the *Shadow kinds). Default: compare LESS_OR_EQUAL,
+// nearest, clamp to edge.
 struct DepthTextureDesc {
   uint32_t width = 1, height = 1, layers = 1;
   bool array = false;
