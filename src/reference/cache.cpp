@@ -17,7 +17,7 @@ namespace {
 
 constexpr char kMagic[8] = {'P', 'N', 'B', 'R', 'R', 'E', 'F', '1'};
 // Bump when the tracer's results change for the same inputs (sampling, offsets, masks).
-constexpr uint32_t kVersion = 2;  // 2: the terminator model, the vertex normals in the geometry hash
+constexpr uint32_t kVersion = 3;  // 2: the terminator model, the vertex normals in the geometry hash; 3: receivers on the surface along their view ray
 
 std::string hex(uint64_t key) {
   char b[17];
@@ -42,6 +42,9 @@ uint64_t cache_key(const Tracer& tracer, const Receivers& receivers, const AreaL
   h.bytes(receivers.position.data(), receivers.position.size() * sizeof(glm::dvec3));
   h.bytes(receivers.normal.data(), receivers.normal.size() * sizeof(glm::dvec3));
   h.bytes(receivers.valid.data(), receivers.valid.size());
+  h.pod(receivers.eye.has_value());
+  if (receivers.eye) h.pod(*receivers.eye);
+  h.bytes(receivers.depth_tolerance.data(), receivers.depth_tolerance.size() * sizeof(float));
   h.pod(int(light.kind));
   h.pod(light.direction_to_light);
   h.pod(light.angular_radius);

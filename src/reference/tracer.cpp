@@ -181,6 +181,8 @@ Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<cons
   r.position.resize(n);
   r.normal.resize(n);
   r.valid.assign(n, 0);
+  r.depth_tolerance.assign(n, 0.0f);
+  r.eye = glm::dvec3(glm::inverse(view)[3]);
   const glm::dmat4 inv_view_proj = glm::inverse(proj * view);
   const glm::dmat3 view_to_world = glm::transpose(glm::dmat3(view));  // view is a rotation
   for (uint32_t y = 0; y < height; ++y)
@@ -193,6 +195,15 @@ Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<cons
                            double(depth[i]), 1.0);
       const glm::dvec4 h = inv_view_proj * ndc;
       const glm::dvec3 p = glm::dvec3(h) / h.w;
+      // The stored depth's rounding, as a distance along the view ray: 4 float steps either way.
+      double tolerance = 0.0;
+      for (const float toward : {-1.0f, 2.0f}) {
+        float d = depth[i];
+        for (int k = 0; k < 4; ++k) d = std::nextafter(d, toward);
+        const glm::dvec4 hd = inv_view_proj * glm::dvec4(ndc.x, ndc.y, double(d), 1.0);
+        const double e = glm::length(glm::dvec3(hd) / hd.w - p);
+        if (std::isfinite(e)) tolerance = std::max(tolerance, e);
+      }
       glm::dvec3 normal = view_to_world * glm::dvec3(nv);
       const double len = glm::length(normal);
       if (!finite(p) || !(len > 0.0) || !std::isfinite(len)) {
@@ -202,6 +213,7 @@ Receivers receivers_from_gbuffer(uint32_t width, uint32_t height, std::span<cons
       r.position[i] = p;
       r.normal[i] = normal / len;
       r.valid[i] = 1;
+      r.depth_tolerance[i] = float(tolerance);
     }
   return r;
 }
@@ -392,21 +404,22 @@ bool occluded(RTCScene scene, ShadowContext& context, const glm::dvec3& org, con
   return ray.tfar < 0.0f;  // Embree sets tfar to -inf on a hit
 }
 
-// The caster triangle under receiver p (unit normal n): a short ray from above p down the
-// normal, `window` metres either side of it. False when p is on no caster (a receiver that
-// casts no shadow, or a reconstruction off by more than the window).
-bool triangle_under(RTCScene scene, const glm::dvec3& p, const glm::dvec3& n, double window,
-                    RTCRayHit& rh) {
+// The caster surface at receiver p: the first hit of a short ray through p along unit `along`
+// (the view ray for G-buffer receivers, minus the normal for explicit points), from `window`
+// metres before p to `window` past it. False when p is on no caster (a receiver that casts no
+// shadow, or one off by more than the window).
+bool surface_at(RTCScene scene, const glm::dvec3& p, const glm::dvec3& along, double window,
+                RTCRayHit& rh) {
   RTCIntersectContext context;
   rtcInitIntersectContext(&context);
   rh = RTCRayHit{};
-  const glm::dvec3 org = p + n * window;
+  const glm::dvec3 org = p - along * window;
   rh.ray.org_x = float(org.x);
   rh.ray.org_y = float(org.y);
   rh.ray.org_z = float(org.z);
-  rh.ray.dir_x = float(-n.x);
-  rh.ray.dir_y = float(-n.y);
-  rh.ray.dir_z = float(-n.z);
+  rh.ray.dir_x = float(along.x);
+  rh.ray.dir_y = float(along.y);
+  rh.ray.dir_z = float(along.z);
   rh.ray.tnear = 0.0f;
   rh.ray.tfar = float(2.0 * window);
   rh.ray.mask = 0xffffffffu;
@@ -498,7 +511,20 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
         rtcInitIntersectContext(&context.context);
         glm::dvec3 surface_point = p;
         RTCRayHit rh;
-        if (smooth && triangle_under(scene, p, receivers.normal[i], 16.0 * ray_offset(p), rh)) {
+        // G-buffer receivers are looked up along their view ray, within the stored depth's
+        // rounding, and moved onto the surface found; explicit points along their normal.
+        const bool from_view = receivers.eye.has_value() && i < receivers.depth_tolerance.size();
+        const glm::dvec3 along =
+            from_view ? glm::normalize(p - *receivers.eye) : -receivers.normal[i];
+        const double window =
+            std::max(16.0 * ray_offset(p), from_view ? double(receivers.depth_tolerance[i]) : 0.0);
+        const bool on_caster =
+            finite(along) && surface_at(scene, p, along, window, rh);
+        if (on_caster && from_view) {
+          const double t = double(rh.ray.tfar);
+          surface_point = p + along * (t - window);
+        }
+        if (smooth && on_caster) {
           const Surface& surface = *impl_->surfaces.at(rh.hit.geomID);
           const uint32_t* tri = &surface.indices[3 * size_t{rh.hit.primID}];
           const glm::dvec3 b(1.0 - double(rh.hit.u) - double(rh.hit.v), rh.hit.u, rh.hit.v);
@@ -513,12 +539,12 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
           // shadows itself, and the flat triangle's answer stands.
           if (glm::dot(smooth_normal, to_centre) > 0.0) {
             const glm::dvec3 on_triangle = b[0] * v[0] + b[1] * v[1] + b[2] * v[2];
-            surface_point = p + terminator_offset(v, nv, on_triangle, b);
+            surface_point += terminator_offset(v, nv, on_triangle, b);
             context.self_geometry = rh.hit.geomID;
             context.self_primitive = rh.hit.primID;
           }
         }
-        const glm::dvec3 org = surface_point + nrm * ray_offset(p);
+        const glm::dvec3 org = surface_point + nrm * ray_offset(surface_point);
         uint32_t visible = 0, count = 0;
         if (hard) {
           visible = occluded(scene, context, org, to_centre, dist) ? 0 : 1;

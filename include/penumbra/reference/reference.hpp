@@ -88,6 +88,14 @@ struct Receivers {
   std::vector<glm::dvec3> position;  // relative to origin
   std::vector<glm::dvec3> normal;    // world orientation, unit
   std::vector<uint8_t> valid;
+  // G-buffer receivers: the camera (relative to origin) and, per receiver, how far along its
+  // view ray the stored depth may put it from the surface (4 float steps of the stored depth
+  // either way, in metres). The tracer moves such a receiver onto the first caster surface
+  // within that distance along its view ray, so a receiver that the depth buffer's rounding put
+  // inside its caster (standard depth at near 1e-4 / far 1e6: centimetres at 5 m) is not
+  // shadowed by the caster itself. Empty for explicit points: they are used as given.
+  std::optional<glm::dvec3> eye;
+  std::vector<float> depth_tolerance;
   // Geometry pixels (or given points) left out for a non-finite position or normal.
   size_t rejected = 0;
   size_t size() const { return position.size(); }
