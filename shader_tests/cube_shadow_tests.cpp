@@ -72,7 +72,10 @@ using VogelCube = ShaderFunction<float(SamplerCubeArrayShadow, glm::vec3, int32_
 using SearchCube = ShaderFunction<void(SamplerCubeArray, glm::vec3, int32_t, float, float, int32_t,
                                        float, float, bool, Out<float>, Out<int32_t>)>;
 using PcssCube = ShaderFunction<float(SamplerCubeArrayShadow, SamplerCubeArray, glm::vec3, int32_t,
-                                      float, float, float, Params, int32_t, float, bool)>;
+                                      float, float, float, Params, int32_t, float, bool, glm::vec3)>;
+using PlaneSearchCube =
+    ShaderFunction<void(SamplerCubeArray, glm::vec3, int32_t, float, float, int32_t, float, float,
+                        bool, glm::vec3, float, Out<float>, Out<int32_t>)>;
 
 class CubeShadowTest : public GpuTest {};
 
@@ -139,7 +142,8 @@ TEST_F(CubeShadowTest, LayersOutOfRangeReadTheClampedCube) {
     const auto [average, blockers] = search(dir, layer, 0.5f, 4.0f, 16, 0.7f, float(n), false);
     EXPECT_EQ(blockers, lit ? 0 : 16);
     EXPECT_EQ(average, lit ? 0.5f : 0.0f);
-    EXPECT_EQ(pcss(dir, layer, 0.5f, 5.0f, float(n), p, 1, 0.7f, false), lit ? 1.0f : 0.0f);
+    EXPECT_EQ(pcss(dir, layer, 0.5f, 5.0f, float(n), p, 1, 0.7f, false, glm::vec3(0.0f)),
+              lit ? 1.0f : 0.0f);
   }
 }
 
@@ -275,13 +279,83 @@ TEST_F(CubeShadowTest, BadInputIsLitAndFindsNoBlocker) {
     SCOPED_TRACE(format_tuple(std::make_tuple(d, ref, res)));
     EXPECT_EQ(pcf(d, 0, ref, 1, res), 1.0f);
     EXPECT_EQ(vogel(d, 0, ref, 16, 2.0f, 0.0f, res), 1.0f);
-    EXPECT_EQ(pcss(d, 0, ref, 5.0f, res, p, 1, 0.0f, false), 1.0f);
+    EXPECT_EQ(pcss(d, 0, ref, 5.0f, res, p, 1, 0.0f, false, glm::vec3(0, 1, 0)), 1.0f);
     const auto [average, blockers] = search(d, 0, ref, 2.0f, 16, 0.0f, res, false);
     EXPECT_EQ(blockers, 0);
     EXPECT_FALSE(std::isnan(average));
   }
   // The same map with usable input: shadowed, so the lit results above are the guards'.
   EXPECT_EQ(pcf(glm::vec3(0, 1, 0), 0, 0.5f, 1, float(n)), 0.0f);
+}
+
+// The direction of texel (col, row) of cube face `face` (+X, -X, +Y, -Y, +Z, -Z), through its
+// centre (Vulkan's cube-map face table).
+glm::dvec3 texel_direction(int face, int col, int row, int n) {
+  const double a = 2.0 * (col + 0.5) / n - 1.0, b = 2.0 * (row + 0.5) / n - 1.0;
+  switch (face) {
+    case 0: return {1.0, -b, -a};
+    case 1: return {-1.0, -b, a};
+    case 2: return {a, 1.0, b};
+    case 3: return {a, -1.0, -b};
+    case 4: return {a, -b, 1.0};
+    default: return {-a, -b, -1.0};
+  }
+}
+
+// A point light 1 m above a floor (y = -1), its cube (256 texels per face) storing the floor's
+// distance (standard depth, near 0.1, far 10) and, in cube 0 only, a box of blockers half-way to part of it. A
+// receiver on the floor seen at 64 degrees from its normal: the flat search finds the floor
+// itself nearer the light across the disk; the search against the floor's plane finds nothing
+// but the real blockers.
+TEST_F(CubeShadowTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversOwnSurface) {
+  constexpr int n = 256;
+  constexpr double near = 0.1, far = 10.0;
+  const auto stored = [&](glm::dvec3 w) {
+    const glm::dvec3 u = glm::normalize(w);
+    if (!(u.y < -1e-6)) return 1.0f;
+    return float(std::clamp((1.0 / -u.y - near) / (far - near), 0.0, 1.0));
+  };
+  const glm::vec3 dir(2.0f, -1.0f, 0.5f);  // light to receiver, on the floor
+  const glm::dvec3 box_centre = 0.5 * glm::dvec3(dir) + glm::dvec3(0.0, 0.0, 0.1);
+  const CubeFill fill = [&](int c, int face, int col, int row) {
+    const glm::dvec3 w = texel_direction(face, col, row, n);
+    // Cube 0 only: blockers where the ray passes within 0.12 m of box_centre (at 0.5 of the way).
+    const glm::dvec3 u = glm::normalize(w);
+    const double t = glm::dot(box_centre, u);
+    if (c == 0 && t > 0.0 && glm::length(box_centre - t * u) < 0.12)
+      return float((t - near) / (far - near));
+    return stored(w);
+  };
+  PlaneSearchCube search(kLocal, "pcss_cube_blocker_search_plane");
+  search.bind(0, cube_texture(2, n, fill, false));
+  const float dist = glm::length(dir);
+  const float inv_range = float(1.0 / (far - near));
+  // The receiver moved 5 cm towards the light (its bias): the floor's own texels, read at the
+  // nearest texel centre rather than on the tap's exact ray, are within 2 cm of the plane there
+  // (half a texel at 256 texels per face, where the floor's distance changes by 4.7 m per
+  // radian).
+  const float ref = (dist - 0.05f - float(near)) * inv_range;
+  const glm::vec3 up(0, 1, 0), none(0.0f);
+  for (const float radius : {8.0f, 16.0f}) {
+    SCOPED_TRACE("radius " + std::to_string(radius));
+    const auto [flat_avg, flat_count] = search(dir, 1, ref, radius, 64, 0.3f, float(n), false, none,
+                                               inv_range);
+    EXPECT_GT(flat_count, 16) << "the floor's near half, found by the flat search";
+    const auto [plane_avg, plane_count] =
+        search(dir, 1, ref, radius, 64, 0.3f, float(n), false, up, inv_range);
+    EXPECT_EQ(plane_count, 0) << "the floor against its own plane";
+    // Cube 0 has the blockers: found against the plane too, at their own depth.
+    const auto [box_avg, box_count] =
+        search(dir, 0, ref, radius, 64, 0.3f, float(n), false, up, inv_range);
+    EXPECT_GT(box_count, 0);
+    EXPECT_NEAR(box_avg, (0.5f * dist - float(near)) * inv_range, 0.05f);
+  }
+  // A normal that is not a vector, or no range, gives the flat search.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const auto flat = search(dir, 1, ref, 8.0f, 64, 0.3f, float(n), false, none, inv_range);
+  EXPECT_EQ(search(dir, 1, ref, 8.0f, 64, 0.3f, float(n), false, glm::vec3(nan, 1, 0), inv_range),
+            flat);
+  EXPECT_EQ(search(dir, 1, ref, 8.0f, 64, 0.3f, float(n), false, up, 0.0f), flat);
 }
 
 }  // namespace

@@ -537,5 +537,50 @@ TEST_F(PcssTest, ArrayLayersOutOfRangeReadTheClampedLayerLikeTheCompareTaps) {
   }
 }
 
+// A receiver on a tilted plane: the map stores the plane (depth = 0.5 + g . (uv - c), standard
+// depth), the receiver sits on it, moved 0.001 towards the light. The flat search finds the
+// plane's near half as blockers; the search against the receiver's plane, given the plane's
+// gradient, finds none, and still finds a real blocker (a square nearer the light) inside the
+// disk. The nearest read quantizes the plane by half a texel, |g| / 128 < 0.0006 here, within
+// the receiver's 0.001.
+TEST_F(PcssTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversOwnSurface) {
+  constexpr int n = 64;
+  const glm::vec2 g(0.06f, -0.04f), c(0.5f, 0.5f);
+  ref::DepthMap plane{n, n, {}}, blocked{n, n, {}};
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x) {
+      const glm::vec2 uv((float(x) + 0.5f) / float(n), (float(y) + 0.5f) / float(n));
+      const float d = 0.5f + glm::dot(g, uv - c);
+      plane.depth.push_back(d);
+      const bool square = x >= 36 && x < 40 && y >= 30 && y < 34;  // 4-8 texels right of c
+      blocked.depth.push_back(square ? 0.3f : d);
+    }
+  ShaderFunction<void(Sampler2DArray, glm::vec3, int32_t, float, int32_t, float, glm::vec2, bool,
+                      glm::vec2, Out<float>, Out<int32_t>)>
+      search("penumbra/pcss.glsl", "pcss_blocker_search_plane_array");
+  search.bind(0, raw_texture({plane, blocked}, true));
+  const glm::vec3 coord(c, 0.5f - 0.001f);
+  const glm::vec2 texel(1.0f / float(n));
+  for (float radius : {6.0f, 10.0f}) {
+    SCOPED_TRACE("radius " + std::to_string(radius));
+    const auto [flat_avg, flat_count] = search(coord, 0, radius, 64, 0.2f, texel, false, glm::vec2(0.0f));
+    EXPECT_GT(flat_count, 20) << "the plane's near half";
+    const auto [avg, count] = search(coord, 0, radius, 64, 0.2f, texel, false, g);
+    EXPECT_EQ(count, 0);
+    EXPECT_EQ(avg, coord.z);
+    const auto [square_avg, square_count] = search(coord, 1, radius, 64, 0.2f, texel, false, g);
+    EXPECT_GT(square_count, 0);
+    EXPECT_EQ(square_avg, 0.3f);
+  }
+  // A gradient that is not finite gives the flat search; so does vec2(0) in the old entry point.
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(search(coord, 0, 10.0f, 64, 0.2f, texel, false, glm::vec2(nan, 0.0f)),
+            search(coord, 0, 10.0f, 64, 0.2f, texel, false, glm::vec2(0.0f)));
+  SearchArrayFn flat("penumbra/pcss.glsl", "pcss_blocker_search_array");
+  flat.bind(0, raw_texture({plane, blocked}, true));
+  EXPECT_EQ(flat(coord, 0, 10.0f, 64, 0.2f, texel, false),
+            search(coord, 0, 10.0f, 64, 0.2f, texel, false, glm::vec2(0.0f)));
+}
+
 }  // namespace
 }  // namespace penumbra::testing

@@ -85,21 +85,23 @@ float pcss_local_filter_radius_texels(float receiver_distance, float blocker_dis
 }
 
 // Returns the PCSS shadow factor of a spot light in layer `layer` of array maps: coord the
-// receiver's (biased) shadow coordinate, receiver_distance its distance along the spot's axis.
-// Search and filter as in the header, blockers from pcss_blocker_search_array, their mean depth
-// linearized with the projection's planes; the filter is pcf_vogel_array, faded by
-// pcss_confidence. Invalid coords are lit.
+// receiver's (biased) shadow coordinate, receiver_distance its distance along the spot's axis,
+// plane_gradient the receiver plane's depth gradient in the map (receiver_plane_depth_gradient;
+// vec2(0) for none). Search and filter as in the header, blockers from
+// pcss_blocker_search_plane_array, their mean depth linearized with the projection's planes; the
+// filter is pcf_vogel_array, faded by pcss_confidence. Invalid coords are lit.
 float pcss_spot_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray depth_map,
                              vec3 coord, int layer, vec2 texel_size, float receiver_distance,
-                             PcssLocalParams params, int tier, float rotation, bool reverse_z) {
+                             PcssLocalParams params, int tier, float rotation, bool reverse_z,
+                             vec2 plane_gradient) {
   if (!pcf_coord_in_map(coord)) return 1.0;
   vec3 c = vec3(coord.xy, clamp(coord.z, 0.0, 1.0));
   int search_taps = pcss_search_tap_count(tier);
   float search_radius = pcss_local_search_radius_texels(receiver_distance, params);
   float blocker_depth;
   int blockers;
-  pcss_blocker_search_array(depth_map, c, layer, search_radius, search_taps, rotation, texel_size,
-                            reverse_z, blocker_depth, blockers);
+  pcss_blocker_search_plane_array(depth_map, c, layer, search_radius, search_taps, rotation,
+                                  texel_size, reverse_z, plane_gradient, blocker_depth, blockers);
   if (blockers == 0) return 1.0;
   float blocker_distance = linearize_depth(blocker_depth, params.near, params.far, reverse_z);
   float filter_radius = min(
@@ -198,14 +200,17 @@ float pcf_cube_vogel_array(samplerCubeArrayShadow map, vec3 dir, int layer, floa
   return pcf_saturate_or_lit(sum / float(n));
 }
 
-// Blocker search of a cube (layer `layer`): tap_count (clamped to 1..64) raw depths, nearest, on
-// a Vogel disk of radius_texels texels perpendicular to dir, rotated by `rotation`. Returns in
-// blocker_count how many are strictly closer to the light than ref (clamped to [0, 1]) and in
-// average_depth their mean stored depth (ref when there is none). An invalid dir finds none.
-void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, float ref,
-                              float radius_texels, int tap_count, float rotation,
-                              float resolution, bool reverse_z, out float average_depth,
-                              out int blocker_count) {
+// The blocker search of pcss_cube_blocker_search against the receiver's plane: a tap is a
+// blocker only when it is closer to the light than the plane through the receiver (at dir from
+// the light) with normal plane_normal, where the tap's ray meets that plane (a ray that does not
+// meet it: the far end). inv_range is 1 / (far - near) of cube_compare_depth, whose units ref
+// is in. A receiver tilted away from the light then does not find its own surface across a
+// wide disk. plane_normal vec3(0) (or not finite), or inv_range <= 0: the flat search.
+void pcss_cube_blocker_search_plane(samplerCubeArray depth_map, vec3 dir, int layer, float ref,
+                                    float radius_texels, int tap_count, float rotation,
+                                    float resolution, bool reverse_z, vec3 plane_normal,
+                                    float inv_range, out float average_depth,
+                                    out int blocker_count) {
   float receiver = clamp(ref, 0.0, 1.0);
   average_depth = penumbra_is_finite(receiver) ? receiver : 0.0;
   blocker_count = 0;
@@ -214,11 +219,26 @@ void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, f
   vec3 t, b;
   float step = cube_texel_step(dir, resolution, t, b) * pcf_safe_radius(radius_texels);
   float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
+  bool plane = penumbra_is_finite(plane_normal.x) && penumbra_is_finite(plane_normal.y) &&
+               penumbra_is_finite(plane_normal.z) && dot(plane_normal, plane_normal) > 0.0 &&
+               inv_range > 0.0 && penumbra_is_finite(inv_range);
+  float along = dot(dir, plane_normal);  // the receiver's plane: dot(x, n) = along
+  float dir_length = length(dir);
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 o = vogel_disk_sample(i, n, angle) * step;
-    float stored = textureLod(depth_map, vec4(dir + o.x * t + o.y * b, float(layer)), 0.0).r;
-    if (pcss_is_blocker(stored, receiver, reverse_z)) {
+    vec3 w = dir + o.x * t + o.y * b;
+    float stored = textureLod(depth_map, vec4(w, float(layer)), 0.0).r;
+    float limit = receiver;
+    if (plane) {
+      // Where the tap's ray from the light meets the plane: lambda w, lambda = along / (w.n).
+      float wn = dot(w, plane_normal);
+      float lambda = wn != 0.0 ? along / wn : -1.0;
+      float meet = lambda > 0.0 ? lambda * length(w) : 1e30;
+      float shift = clamp((meet - dir_length) * inv_range, -2.0, 2.0);
+      limit = receiver + (reverse_z ? -shift : shift);
+    }
+    if (pcss_is_blocker(stored, limit, reverse_z)) {
       sum += stored;
       ++blocker_count;
     }
@@ -226,14 +246,29 @@ void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, f
   if (blocker_count > 0) average_depth = sum / float(blocker_count);
 }
 
+// Blocker search of a cube (layer `layer`): tap_count (clamped to 1..64) raw depths, nearest, on
+// a Vogel disk of radius_texels texels perpendicular to dir, rotated by `rotation`. Returns in
+// blocker_count how many are strictly closer to the light than ref (clamped to [0, 1]) and in
+// average_depth their mean stored depth (ref when there is none). An invalid dir finds none.
+void pcss_cube_blocker_search(samplerCubeArray depth_map, vec3 dir, int layer, float ref,
+                              float radius_texels, int tap_count, float rotation,
+                              float resolution, bool reverse_z, out float average_depth,
+                              out int blocker_count) {
+  pcss_cube_blocker_search_plane(depth_map, dir, layer, ref, radius_texels, tap_count, rotation,
+                                 resolution, reverse_z, vec3(0.0), 0.0, average_depth,
+                                 blocker_count);
+}
+
 // Returns the PCSS shadow factor of a point light's cube (layer `layer`): dir from the light to
 // the (biased) receiver, receiver_distance = length(dir), ref = cube_compare_depth of it. The
 // blocker search reads tap_count raw depths (nearest) on a Vogel disk of the search radius;
-// blocker distances are linear, so their mean is a mean distance. Then as pcss_spot_shadow_array.
+// blocker distances are linear, so their mean is a mean distance; plane_normal is the receiver's
+// normal for pcss_cube_blocker_search_plane (vec3(0): the flat search). Then as
+// pcss_spot_shadow_array.
 float pcss_cube_shadow_array(samplerCubeArrayShadow compare_map, samplerCubeArray depth_map,
                              vec3 dir, int layer, float ref, float receiver_distance,
                              float resolution, PcssLocalParams params, int tier, float rotation,
-                             bool reverse_z) {
+                             bool reverse_z, vec3 plane_normal) {
   if (!cube_dir_valid(dir) || !penumbra_is_finite(ref) || !(resolution > 0.0)) return 1.0;
   int search_taps = pcss_search_tap_count(tier);
   float search_radius = pcss_local_search_radius_texels(receiver_distance, params);
@@ -241,8 +276,10 @@ float pcss_cube_shadow_array(samplerCubeArrayShadow compare_map, samplerCubeArra
   float receiver = clamp(ref, 0.0, 1.0);
   float blocker_depth;
   int blockers;
-  pcss_cube_blocker_search(depth_map, dir, layer, receiver, search_radius, search_taps, angle,
-                           resolution, reverse_z, blocker_depth, blockers);
+  float inv_range = 1.0 / max(params.far - params.near, 1e-30);
+  pcss_cube_blocker_search_plane(depth_map, dir, layer, receiver, search_radius, search_taps,
+                                 angle, resolution, reverse_z, plane_normal, inv_range,
+                                 blocker_depth, blockers);
   if (blockers == 0) return 1.0;
   float blocker_distance = cube_stored_distance(blocker_depth, params.near, params.far, reverse_z);
   float filter_radius = min(

@@ -44,6 +44,7 @@
 #ifndef PENUMBRA_PCSS_GLSL
 #define PENUMBRA_PCSS_GLSL
 
+#include "penumbra/bias.glsl"
 #include "penumbra/noise.glsl"
 #include "penumbra/pcf.glsl"
 
@@ -203,14 +204,24 @@ void pcss_blocker_search(sampler2D depth_map, vec3 coord, float radius_texels, i
   if (blocker_count > 0) average_depth = sum / float(blocker_count);
 }
 
-// Blocker search of pcss_blocker_search in layer `layer` of an array map.
-void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, float radius_texels,
-                               int tap_count, float rotation, vec2 texel_size, bool reverse_z,
-                               out float average_depth, out int blocker_count) {
+// Blocker search against the receiver's plane, in layer `layer` of an array map: as
+// pcss_blocker_search, but a tap is a blocker only when it is closer to the light than the
+// receiver's plane there, coord.z + receiver_plane_depth_offset(plane_gradient, tap - coord.xy)
+// (bias.glsl; plane_gradient from receiver_plane_depth_gradient, in coord's depth convention).
+// A receiver tilted away from the light then does not find its own surface as a blocker across
+// a wide search disk. vec2(0): the flat search of pcss_blocker_search; a non-finite gradient
+// counts as vec2(0). Average depths are the blockers' stored depths, as there.
+void pcss_blocker_search_plane_array(sampler2DArray depth_map, vec3 coord, int layer,
+                                     float radius_texels, int tap_count, float rotation,
+                                     vec2 texel_size, bool reverse_z, vec2 plane_gradient,
+                                     out float average_depth, out int blocker_count) {
   float depth = clamp(coord.z, 0.0, 1.0);
   average_depth = penumbra_is_finite(depth) ? depth : 0.0;
   blocker_count = 0;
   if (!pcf_coord_in_map(coord)) return;
+  vec2 g = penumbra_is_finite(plane_gradient.x) && penumbra_is_finite(plane_gradient.y)
+               ? plane_gradient
+               : vec2(0.0);
   int n = clamp(tap_count, 1, kPcssMaxSearchTaps);
   float radius = pcf_safe_radius(radius_texels);
   float angle = penumbra_is_finite(rotation) ? rotation : 0.0;
@@ -218,12 +229,21 @@ void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, 
   for (int i = 0; i < n; ++i) {
     vec2 uv = pcss_search_uv(coord.xy, i, n, radius, angle, texel_size);
     float stored = pcss_fetch_depth_array(depth_map, uv, layer);
-    if (pcss_is_blocker(stored, depth, reverse_z)) {
+    float plane = depth + receiver_plane_depth_offset(g, uv - coord.xy);
+    if (pcss_is_blocker(stored, plane, reverse_z)) {
       sum += stored;
       ++blocker_count;
     }
   }
   if (blocker_count > 0) average_depth = sum / float(blocker_count);
+}
+
+// Blocker search of pcss_blocker_search in layer `layer` of an array map.
+void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, float radius_texels,
+                               int tap_count, float rotation, vec2 texel_size, bool reverse_z,
+                               out float average_depth, out int blocker_count) {
+  pcss_blocker_search_plane_array(depth_map, coord, layer, radius_texels, tap_count, rotation,
+                                  texel_size, reverse_z, vec2(0.0), average_depth, blocker_count);
 }
 
 // Returns true when a blocker search result needs filtering; false for the early-outs: no

@@ -108,8 +108,15 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   if (filter_mode == kFilterPoisson)
     return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
                              frame.filter_params.w, rotation, texel);
+  // The receiver plane's depth gradient in the map, from two points on the plane a texel's
+  // footprint away (receiver_plane_depth_gradient takes any two independent steps).
+  vec3 t1, t2;
+  cube_tangent_basis(n, t1, t2);
+  vec3 step1 = world_to_shadow_coord(s.view_proj, q + t1 * texel_world) - coord;
+  vec3 step2 = world_to_shadow_coord(s.view_proj, q + t2 * texel_world) - coord;
   return pcss_spot_shadow_array(spot_compare, spot_depth, coord, map, texel, receiver_distance,
-                                params, int(frame.filter_params.y), rotation, reverse_z);
+                                params, int(frame.filter_params.y), rotation, reverse_z,
+                                receiver_plane_depth_gradient(step1, step2));
 }
 #endif
 
@@ -164,7 +171,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
                                 frame.filter_params.w, rotation, resolution);
   return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
                                 resolution, params, int(frame.filter_params.y), rotation,
-                                reverse_z);
+                                reverse_z, n);
 }
 #endif
 
