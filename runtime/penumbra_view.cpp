@@ -53,6 +53,7 @@ struct Options {
   uint32_t debounce_ms = 50;
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
+  std::vector<std::pair<std::string, std::string>> sets;     // --set KEY=VALUE, in order
 };
 
 // The names of --view and --filter: the parameter table's choices, in their order.
@@ -103,7 +104,7 @@ void usage() {
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
       "                     [--shader-dir DIR] [--watch] [--debounce-ms N]\n"
       "                     [--exit-after-frames] [--no-ui]\n"
-      "                     [--script FILE|-] [--command LINE]...\n"
+      "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
       "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
       "  --headless    render offscreen and write PNGs (the default when there is no display)\n"
       "  window mode   (a display and no --headless): the live view with hot reload; left drag\n"
@@ -114,6 +115,8 @@ void usage() {
       "  --out         where PNGs and timings go (default out/<scene>)\n"
       "  --view        %s (default: lit, then every debug view)\n"
       "  --filter      %s (default: the scene's)\n"
+      "  --set         override a parameter-table key after loading, e.g.\n"
+      "                --set shadows.pcf_radius=2 (docs/scenes.md lists the keys)\n"
       "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
@@ -177,12 +180,22 @@ Options parse(int argc, char** argv) {
       o.scripts.emplace_back("script", value());
     else if (a == "--command")
       o.scripts.emplace_back("command", value());
+    else if (a == "--set") {
+      const std::string v = value();
+      const auto eq = v.find('=');
+      if (eq == std::string::npos || eq == 0)
+        throw Error("--set " + v + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
+      o.sets.emplace_back(v.substr(0, eq), v.substr(eq + 1));
+    }
     else if (a == "--help" || a == "-h") {
       usage();
       std::exit(0);
     } else
       throw Error("unknown argument '" + a + "' (try --help)");
   }
+  if (!o.sets.empty() && !o.scripts.empty())
+    throw Error("--set does not combine with --script or --command (use the command 'set KEY "
+                "VALUE' there)");
   return o;
 }
 
@@ -416,6 +429,13 @@ int run(int argc, char** argv) {
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
   if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
+  for (const auto& [key, text] : o.sets) {
+    try {
+      penumbra::scene::set_param(scene, key, text);
+    } catch (const std::exception& e) {
+      throw Error("--set " + key + "=" + text + ": " + e.what());
+    }
+  }
   const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);
 
   std::unique_ptr<penumbra::runtime::Window> window;

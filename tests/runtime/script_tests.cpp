@@ -122,6 +122,28 @@ TEST(ScriptEndToEnd, AnErrorNamesTheScriptLineAndFails) {
       HasSubstr("--command 1: set shadows.filter pcx: expected one of hard, pcf, pcss, poisson"));
 }
 
+// --set overrides a parameter-table key for the headless frames (what penumbra-bench uses), and
+// a bad one is an error naming the flag, the key and the value.
+TEST(ViewSet, OverridesAKeyAndRejectsBadOnes) {
+  TempTree tree(false);
+  const fs::path out = tree.root() / "out";
+  auto r = view("--size 160x90 --frames 1 --view lit --out " + out.string() +
+                " --set shadows.filter=hard --set contact.steps=0");
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("contact-shadows")));  // the pass is not built at 0 steps
+  EXPECT_TRUE(fs::exists(out / "lit.png"));
+  r = view("--size 160x90 --frames 1 --set shadows.pcf_radius=9");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("--set shadows.pcf_radius=9: "));
+  EXPECT_THAT(r.output, HasSubstr("[0, 5]"));
+  r = view("--set shadows.pcf_radius");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("expected KEY=VALUE"));
+  r = view("--set shadows.filter=hard --command \"render 1\"");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("does not combine"));
+}
+
 // The same commands in process, for the error cases that need no frame.
 class ScriptTest : public GpuTest {
  protected:

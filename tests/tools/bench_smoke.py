@@ -1,0 +1,67 @@
+"""Smoke test of tools/penumbra-bench --quick: the outputs exist, every metric is finite and in
+range, every GPU time positive, the report embeds its plot; a scene file with a typo fails and
+the error names the file and the line. Usage: bench_smoke.py BENCH BUILD_DIR WORK_DIR"""
+import csv
+import json
+import math
+import os
+import shutil
+import subprocess
+import sys
+
+bench, build, work = sys.argv[1:4]
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+failures = []
+
+
+def check(ok, what):
+    if not ok:
+        failures.append(what)
+
+
+out = os.path.join(work, "quick")
+r = subprocess.run([sys.executable, bench, "--quick", "--out", out, "--build", build],
+                   capture_output=True, text=True)
+check(r.returncode == 0, f"--quick exited {r.returncode}:\n{r.stdout}{r.stderr}")
+for name in ("bench.csv", "bench.json", "report.md", "default.png"):
+    path = os.path.join(out, name)
+    check(os.path.isfile(path) and os.path.getsize(path) > 100, f"{name} missing or empty")
+if os.path.isfile(os.path.join(out, "bench.csv")):
+    with open(os.path.join(out, "bench.csv")) as f:
+        rows = list(csv.DictReader(f))
+    check(len(rows) >= 7, f"{len(rows)} rows, expected one per configuration (7)")
+    configs = {row["config"] for row in rows}
+    check("defaults" in configs and "pcss medium" in configs, f"configurations: {configs}")
+    for row in rows:
+        for key in ("mean_abs", "rmse", "p99", "false_light", "false_shadow"):
+            v = float(row[key])
+            check(math.isfinite(v) and 0.0 <= v <= 1.0, f"{row['config']}: {key} = {v}")
+        for key in ("shadow_ms", "frame_ms"):
+            v = float(row[key])
+            check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")
+        check(float(row["frame_ms"]) >= float(row["shadow_ms"]), f"{row['config']}: frame < shadow")
+        check(row["device"] != "" and row["commit"] != "" and len(row["scene_hash"]) == 16,
+              f"{row['config']}: device, commit and scene hash recorded")
+if os.path.isfile(os.path.join(out, "bench.json")):
+    with open(os.path.join(out, "bench.json")) as f:
+        meta = json.load(f)["meta"]
+    check(meta["complete"] is True, f"meta: {meta}")
+if os.path.isfile(os.path.join(out, "report.md")):
+    with open(os.path.join(out, "report.md")) as f:
+        report = f.read()
+    check("![default](default.png)" in report and "Default:" in report, "report.md content")
+
+# A scene with a typo: the error names the file and the line.
+bad = os.path.join(work, "typo.toml")
+with open(bad, "w") as f:
+    f.write('name = "typo"\n\n[camera]\nposition = [0, 2, 6]\nfovy = 50\n')
+r = subprocess.run([sys.executable, bench, "--scene", bad, "--quick", "--out",
+                    os.path.join(work, "typo"), "--build", build], capture_output=True, text=True)
+check(r.returncode != 0, "a scene with a typo must fail")
+check("typo.toml:5" in r.stderr + r.stdout, f"the error names typo.toml:5:\n{r.stderr[-2000:]}")
+
+if failures:
+    print("\n".join(failures))
+    sys.exit(1)
+print("penumbra-bench --quick: outputs present, metrics finite")
