@@ -180,13 +180,8 @@ Options parse(int argc, char** argv) {
       o.scripts.emplace_back("script", value());
     else if (a == "--command")
       o.scripts.emplace_back("command", value());
-    else if (a == "--set") {
-      const std::string v = value();
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0)
-        throw Error("--set " + v + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
-      o.sets.emplace_back(v.substr(0, eq), v.substr(eq + 1));
-    }
+    else if (a == "--set")
+      o.sets.push_back(penumbra::scene::split_set_flag(value()));
     else if (a == "--help" || a == "-h") {
       usage();
       std::exit(0);
@@ -429,13 +424,7 @@ int run(int argc, char** argv) {
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
   if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
-  for (const auto& [key, text] : o.sets) {
-    try {
-      penumbra::scene::set_param(scene, key, text);
-    } catch (const std::exception& e) {
-      throw Error("--set " + key + "=" + text + ": " + e.what());
-    }
-  }
+  penumbra::scene::set_params(scene, o.sets);
   const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);
 
   std::unique_ptr<penumbra::runtime::Window> window;

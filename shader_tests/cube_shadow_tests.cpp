@@ -21,17 +21,7 @@
 #include <tuple>
 #include <vector>
 
-namespace penumbra::local_ref {
-// PcssLocalParams of local_shadow.glsl, member for member.
-struct CubePcssParams {
-  float light_radius = 0, texel_at_unit = 0, near = 0, far = 0, max_search_texels = 0,
-        min_filter_texels = 0, max_filter_texels = 0, confidence_fraction = 0;
-};
-}  // namespace penumbra::local_ref
-
-PENUMBRA_GLSL_STRUCT(penumbra::local_ref::CubePcssParams, "PcssLocalParams", light_radius,
-                     texel_at_unit, near, far, max_search_texels, min_filter_texels,
-                     max_filter_texels, confidence_fraction);
+#include "reference/local_ref.hpp"
 
 namespace penumbra::testing {
 namespace {
@@ -39,7 +29,7 @@ namespace {
 constexpr const char* kLocal = "penumbra/local_shadow.glsl";
 constexpr float kNan = std::numeric_limits<float>::quiet_NaN();
 constexpr float kInf = std::numeric_limits<float>::infinity();
-using Params = local_ref::CubePcssParams;
+using Params = local_ref::PcssLocalParams;
 
 // depth(cube, face, column, row) for faces +X, -X, +Y, -Y, +Z, -Z (0..5); rows from the top.
 using CubeFill = std::function<float(int, int, int, int)>;
@@ -79,6 +69,35 @@ using PlaneSearchCube =
 
 class CubeShadowTest : public GpuTest {};
 
+// The four cube filters over one cube array, through a compare and a raw sampler.
+struct CubeFilters {
+  CubeFilters(int cubes, int n, const CubeFill& fill) {
+    const auto compare = cube_texture(cubes, n, fill, true);
+    const auto raw = cube_texture(cubes, n, fill, false);
+    pcf.bind(0, compare);
+    vogel.bind(0, compare);
+    search.bind(0, raw);
+    pcss.bind(0, compare).bind(1, raw);
+  }
+  PcfCube pcf{kLocal, "pcf_cube_array"};
+  VogelCube vogel{kLocal, "pcf_cube_vogel_array"};
+  SearchCube search{kLocal, "pcss_cube_blocker_search"};
+  PcssCube pcss{kLocal, "pcss_cube_shadow_array"};
+};
+
+// A 0.2 m sphere light over a cube of n texels per face, depths 0.1-20 m, search up to 8 texels.
+Params sphere_light_params(int n) {
+  Params p;
+  p.light_radius = 0.2f;
+  p.texel_at_unit = 2.0f / float(n);
+  p.near = 0.1f;
+  p.far = 20.0f;
+  p.max_search_texels = 8.0f;
+  p.min_filter_texels = 1.0f;
+  p.max_filter_texels = 8.0f;
+  return p;
+}
+
 // On the +Z face of cube 1, the columns left of n/2 - q store 0 (every reference of 0.5 is
 // shadowed there) and the rest 1 (lit); cube 0 is lit everywhere. Seen along +Z (the face's
 // centre, on a texel corner), tap (i, j) lands on the boundary between columns n/2 + i - 1 and
@@ -117,22 +136,9 @@ TEST_F(CubeShadowTest, PcfTapsAreOneTexelApartOnTheFace) {
 TEST_F(CubeShadowTest, LayersOutOfRangeReadTheClampedCube) {
   constexpr int n = 16;
   const CubeFill fill = [](int c, int, int, int) { return c == 0 ? 1.0f : 0.0f; };
-  PcfCube pcf(kLocal, "pcf_cube_array");
-  pcf.bind(0, cube_texture(2, n, fill, true));
-  VogelCube vogel(kLocal, "pcf_cube_vogel_array");
-  vogel.bind(0, cube_texture(2, n, fill, true));
-  SearchCube search(kLocal, "pcss_cube_blocker_search");
-  search.bind(0, cube_texture(2, n, fill, false));
-  PcssCube pcss(kLocal, "pcss_cube_shadow_array");
-  pcss.bind(0, cube_texture(2, n, fill, true)).bind(1, cube_texture(2, n, fill, false));
-  Params p;
-  p.light_radius = 0.2f;
-  p.texel_at_unit = 2.0f / n;
-  p.near = 0.1f;
-  p.far = 20.0f;
-  p.max_search_texels = 8.0f;
-  p.min_filter_texels = 1.0f;
-  p.max_filter_texels = 8.0f;
+  CubeFilters cube(2, n, fill);
+  auto& [pcf, vogel, search, pcss] = cube;
+  const Params p = sphere_light_params(n);
   const glm::vec3 dir(0.3f, -0.8f, 0.5f);
   for (int32_t layer : {-7, -1, 0, 1, 2, 100}) {
     const bool lit = layer <= 0;
@@ -254,22 +260,9 @@ TEST_F(CubeShadowTest, TapCountsAndRotationsAreClamped) {
 TEST_F(CubeShadowTest, BadInputIsLitAndFindsNoBlocker) {
   constexpr int n = 8;
   const CubeFill fill = [](int, int, int, int) { return 0.0f; };  // everything shadows
-  PcfCube pcf(kLocal, "pcf_cube_array");
-  pcf.bind(0, cube_texture(1, n, fill, true));
-  VogelCube vogel(kLocal, "pcf_cube_vogel_array");
-  vogel.bind(0, cube_texture(1, n, fill, true));
-  SearchCube search(kLocal, "pcss_cube_blocker_search");
-  search.bind(0, cube_texture(1, n, fill, false));
-  PcssCube pcss(kLocal, "pcss_cube_shadow_array");
-  pcss.bind(0, cube_texture(1, n, fill, true)).bind(1, cube_texture(1, n, fill, false));
-  Params p;
-  p.light_radius = 0.2f;
-  p.texel_at_unit = 2.0f / n;
-  p.near = 0.1f;
-  p.far = 20.0f;
-  p.max_search_texels = 8.0f;
-  p.min_filter_texels = 1.0f;
-  p.max_filter_texels = 8.0f;
+  CubeFilters cube(1, n, fill);
+  auto& [pcf, vogel, search, pcss] = cube;
+  const Params p = sphere_light_params(n);
   const std::vector<std::tuple<glm::vec3, float, float>> bad = {
       {{0, 0, 0}, 0.5f, float(n)},        {{1e-30f, 0, 0}, 0.5f, float(n)},
       {{kNan, 1, 0}, 0.5f, float(n)},     {{kInf, 0, 0}, 0.5f, float(n)},

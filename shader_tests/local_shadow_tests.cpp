@@ -18,21 +18,10 @@
 #include <vector>
 
 #include "reference/filter_ref.hpp"
+#include "reference/local_ref.hpp"
 
 PENUMBRA_GLSL_STRUCT(penumbra::filter_ref::PcssParams, "PcssParams", tan_half_angle,
                      texel_world_size, depth_near, depth_far, max_search_texels, min_filter_texels,
-                     max_filter_texels, confidence_fraction);
-
-namespace penumbra::local_ref {
-// PcssLocalParams of local_shadow.glsl, member for member.
-struct PcssLocalParams {
-  float light_radius = 0, texel_at_unit = 0, near = 0, far = 0, max_search_texels = 0,
-        min_filter_texels = 0, max_filter_texels = 0, confidence_fraction = 0;
-};
-}  // namespace penumbra::local_ref
-
-PENUMBRA_GLSL_STRUCT(penumbra::local_ref::PcssLocalParams, "PcssLocalParams", light_radius,
-                     texel_at_unit, near, far, max_search_texels, min_filter_texels,
                      max_filter_texels, confidence_fraction);
 
 namespace penumbra::testing {

@@ -122,13 +122,9 @@ Options parse(int argc, char** argv) {
       o.cache_dir = value();
     else if (a == "--no-cache")
       o.cache = false;
-    else if (a == "--set") {
-      const std::string v = value();
-      const auto eq = v.find('=');
-      if (eq == std::string::npos || eq == 0)
-        throw Error("--set " + v + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
-      o.sets.emplace_back(v.substr(0, eq), v.substr(eq + 1));
-    } else if (a == "--help" || a == "-h") {
+    else if (a == "--set")
+      o.sets.push_back(penumbra::scene::split_set_flag(value()));
+    else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
     } else
@@ -151,13 +147,7 @@ int run(int argc, char** argv) {
   Options o = parse(argc, argv);
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
-  for (const auto& [key, text] : o.sets) {
-    try {
-      penumbra::scene::set_param(scene, key, text);
-    } catch (const std::exception& e) {
-      throw Error("--set " + key + "=" + text + ": " + e.what());
-    }
-  }
+  penumbra::scene::set_params(scene, o.sets);
   if (o.out.empty()) o.out = fs::path("out") / scene.name / "reference";
   if (o.cache)
     o.measure.cache_dir =

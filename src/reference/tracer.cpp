@@ -518,8 +518,9 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
             from_view ? glm::normalize(p - *receivers.eye) : -receivers.normal[i];
         const double window =
             std::max(16.0 * ray_offset(p), from_view ? double(receivers.depth_tolerance[i]) : 0.0);
-        const bool on_caster =
-            finite(along) && surface_at(scene, p, along, window, rh);
+        // (Explicit points under the flat-triangle model need no lookup.)
+        const bool on_caster = (smooth || from_view) && finite(along) &&
+                               surface_at(scene, p, along, window, rh);
         if (on_caster && from_view) {
           const double t = double(rh.ray.tfar);
           surface_point = p + along * (t - window);

@@ -618,6 +618,23 @@ std::string get_param(const Scene& scene, std::string_view key) {
   return format_value(p, *v);
 }
 
+std::pair<std::string, std::string> split_set_flag(std::string_view value) {
+  const auto eq = value.find('=');
+  if (eq == std::string_view::npos || eq == 0)
+    throw Error("--set " + std::string(value) + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
+  return {std::string(value.substr(0, eq)), std::string(value.substr(eq + 1))};
+}
+
+void set_params(Scene& scene, const std::vector<std::pair<std::string, std::string>>& sets) {
+  for (const auto& [key, text] : sets) {
+    try {
+      set_param(scene, key, text);
+    } catch (const std::exception& e) {
+      throw Error("--set " + key + "=" + text + ": " + e.what());
+    }
+  }
+}
+
 void set_param(Scene& scene, std::string_view key, std::string_view text) {
   const Param& p = param(key);
   if (!p.settable())

@@ -17,6 +17,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <utility>
 #include <variant>
 #include <vector>
 
@@ -123,6 +124,12 @@ std::string markdown_rows(std::string_view table);
 // get/set by key and text, with the row's checks; set leaves the scene unchanged on error.
 std::string get_param(const Scene& scene, std::string_view key);
 void set_param(Scene& scene, std::string_view key, std::string_view text);
+
+// A command line's "--set KEY=VALUE": split_set_flag splits the flag's value (throws
+// penumbra::Error "--set V: expected KEY=VALUE, ..." without an '=' or a key); set_params
+// applies them in order with set_param, its errors prefixed "--set KEY=VALUE: ".
+std::pair<std::string, std::string> split_set_flag(std::string_view value);
+void set_params(Scene& scene, const std::vector<std::pair<std::string, std::string>>& sets);
 
 // The constraints of [camera] across keys ("" when they hold): target != position, up not
 // parallel to the view, far > near. The scene file and set_param both use it.
