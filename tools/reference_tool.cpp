@@ -186,7 +186,24 @@ int run(int argc, char** argv) {
          << ", \"seed\": " << o.measure.trace.seed << ", \"terminator\": "
          << (o.measure.trace.terminator == penumbra::reference::Terminator::smooth ? "\"smooth\""
                                                                                 : "\"geometric\"")
-         << ", \"threshold\": " << o.measure.metrics.threshold;
+         << ", \"threshold\": " << o.measure.metrics.threshold << ", \"filters\": {";
+  // Each light's filter and its fetches per pixel (penumbra-bench's roofline column).
+  bool first_light = true;
+  for (const auto& l : m.lights) {
+    using penumbra::reference::LightKind;
+    std::optional<penumbra::scene::Filter> own;
+    if (l.light.kind == LightKind::spot) own = scene.spots.at(l.light.index).filter;
+    if (l.light.kind == LightKind::point) own = scene.points.at(l.light.index).filter;
+    const auto filter = own.value_or(scene.shadows.filter);
+    header << (first_light ? "" : ", ") << json_string(l.light.name())
+           << ": {\"filter\": " << json_string(std::string(penumbra::scene::to_string(filter)))
+           << ", \"fetches_per_pixel\": "
+           << penumbra::scene::filter_fetches_per_pixel(filter, scene.shadows,
+                                                         l.light.kind == LightKind::point)
+           << "}";
+    first_light = false;
+  }
+  header << "}";
   penumbra::reference::write_measurement(m, o.out, header.str());
   for (const auto& l : m.lights) {
     std::printf("%s  (%s%llu rays, %.1f s)\n", l.metrics.to_line().c_str(),

@@ -82,6 +82,22 @@ Scene::Requirements Scene::requirements() const {
   return r;
 }
 
+int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube) {
+  const int r = std::clamp(shadows.pcf_radius, 0, 5);  // pcf_clamp_radius
+  const int tier = std::clamp(shadows.pcss_quality, 0, 2);
+  switch (filter) {
+    case Filter::hard:
+      return 1;
+    case Filter::pcf:
+      return cube ? (2 * r + 1) * (2 * r + 1) : (r + 1) * (r + 1);
+    case Filter::poisson:
+      return int(std::clamp(shadows.poisson_taps, 1u, 32u));
+    case Filter::pcss:
+      return (8 << tier) + (16 << tier);  // pcss_search_tap_count + pcss_filter_tap_count
+  }
+  return 1;
+}
+
 std::vector<std::string> shipped_scenes() {
   std::vector<std::string> names;
   std::error_code ec;

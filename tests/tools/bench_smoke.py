@@ -2,6 +2,8 @@
 range, every GPU time positive, the report embeds its plot; a scene file with a typo fails and
 the error names the file and the line. Usage: bench_smoke.py BENCH BUILD_DIR WORK_DIR"""
 import csv
+import importlib.machinery
+import importlib.util
 import json
 import math
 import os
@@ -43,6 +45,17 @@ if os.path.isfile(os.path.join(out, "bench.csv")):
         check(float(row["frame_ms"]) >= float(row["shadow_ms"]), f"{row['config']}: frame < shadow")
         check(row["device"] != "" and row["commit"] != "" and len(row["scene_hash"]) == 16,
               f"{row['config']}: device, commit and scene hash recorded")
+        # The roofline column: the sun's filter taps (pcf_grid_array: (r+1)^2; PCSS medium:
+        # 16 search + 32 filter), its resolve pass and a finite, positive floor and ratio.
+        want = {"hard": 1, "pcf r=0": 1, "pcf r=1": 4, "pcf r=3": 16, "poisson 16": 16,
+                "pcss medium": 48}.get(row["config"])
+        if want is not None:
+            check(int(row["fetches_per_pixel"]) == want,
+                  f"{row['config']}: {row['fetches_per_pixel']} fetches per pixel, expected {want}")
+        check(row["resolve_pass"] == "shadow-resolve", f"{row['config']}: {row['resolve_pass']}")
+        for key in ("resolve_ms", "resolve_floor_ms", "resolve_over_floor"):
+            v = float(row[key])
+            check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")
 if os.path.isfile(os.path.join(out, "bench.json")):
     with open(os.path.join(out, "bench.json")) as f:
         meta = json.load(f)["meta"]
@@ -51,6 +64,30 @@ if os.path.isfile(os.path.join(out, "report.md")):
     with open(os.path.join(out, "report.md")) as f:
         report = f.read()
     check("![default](default.png)" in report and "Default:" in report, "report.md content")
+    check("Roofline" in report and "over the floor" in report, "report.md has the roofline")
+rate_path = os.path.join(out, "texel_rate.json")
+check(os.path.isfile(rate_path), "texel_rate.json missing")
+if os.path.isfile(rate_path):
+    with open(rate_path) as f:
+        rate = json.load(f)
+    for kind in ("compare", "fetch"):
+        v = rate["kinds"][kind]["gfetch_per_s"]
+        check(math.isfinite(v) and v > 0.0, f"texel rate {kind}: {v}")
+
+# The moved bench-set scene: every position moved, and the tables without one given one.
+spec = importlib.util.spec_from_loader("bench", importlib.machinery.SourceFileLoader("bench", bench))
+mod = importlib.util.module_from_spec(spec)
+spec.loader.exec_module(mod)
+src = os.path.join(work, "origin.toml")
+with open(src, "w") as f:
+    f.write('name = "o"\n[camera]\nposition = [1, 2, 3]\ntarget = [0, 0, 0]  # look\n'
+            '[[object]]\nmesh = "plane"\n[[object]]\nmesh = "box"\nposition = [0.5, 0, -1]\n')
+moved = mod.moved_scene(src, (1e5, 0.0, -2e5), os.path.join(work, "moved", "o.toml"))
+with open(moved) as f:
+    text = f.read()
+for line in ("position = [100001.0, 2.0, -199997.0]", "target = [100000.0, 0.0, -200000.0]",
+             "position = [100000.0, 0.0, -200000.0]", "position = [100000.5, 0.0, -200001.0]"):
+    check(line in text, f"moved scene lacks '{line}':\n{text}")
 
 # A scene with a typo: the error names the file and the line.
 bad = os.path.join(work, "typo.toml")

@@ -1,0 +1,275 @@
+// penumbra-texel-rate: the device's texel-rate floor for the shadow filters, measured.
+//
+// Runs shaders/bench/texel_rate.comp (one invocation per screen pixel, n x n fetches from a
+// depth map on a screen-coherent grid, nothing else) for n = 1..8 and times each dispatch with
+// Vulkan timestamp queries (median of --reps dispatches after a warm-up, a barrier between
+// them). For each fetch kind (compare taps through the renderer's linear compare sampler;
+// texelFetch of the raw depth, as in the PCSS blocker search) it fits time = base + fetches x
+// cost over the points and reports the fetch rate. penumbra-bench divides a filter's fetches by
+// that rate to get its floor and reports the resolve's measured time over it (the roofline
+// column). Writes --out (JSON, atomically) and prints a table.
+//
+//   penumbra-texel-rate [--size WxH] [--map N] [--reps N] [--out FILE]
+//
+// PENUMBRA_DEVICE picks the device; PENUMBRA_VALIDATION=1 turns the validation layer on (any
+// message is an error).
+#include <algorithm>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <penumbra/core/error.hpp>
+#include <penumbra/gpu/commands.hpp>
+#include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/pipeline.hpp>
+#include <penumbra/gpu/resources.hpp>
+#include <penumbra/shader/compiler.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace {
+
+using penumbra::Error;
+namespace gpu = penumbra::gpu;
+
+struct Options {
+  uint32_t width = 1280, height = 720;
+  uint32_t map = 2048;
+  int reps = 20;
+  std::string out;
+};
+
+struct Push {
+  int32_t size[2];
+  int32_t taps_per_axis;
+  int32_t mode;
+  float texels_per_pixel;
+};
+
+double median(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  const size_t n = v.size();
+  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+}
+
+uint32_t parse_positive(const std::string& flag, const std::string& text, uint32_t max) {
+  size_t used = 0;
+  long v = -1;
+  try {
+    v = std::stol(text, &used);
+  } catch (const std::exception&) {
+  }
+  if (used != text.size() || v < 1 || v > long(max))
+    throw Error(flag + " " + text + ": expected an integer in [1, " + std::to_string(max) + "]");
+  return uint32_t(v);
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    auto value = [&]() -> std::string {
+      if (i + 1 >= argc) throw Error(a + " needs a value");
+      return argv[++i];
+    };
+    if (a == "--size") {
+      const std::string v = value();
+      const size_t x = v.find('x');
+      if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
+      o.width = parse_positive("--size", v.substr(0, x), 16384);
+      o.height = parse_positive("--size", v.substr(x + 1), 16384);
+    } else if (a == "--map") {
+      o.map = parse_positive("--map", value(), 16384);
+    } else if (a == "--reps") {
+      o.reps = int(parse_positive("--reps", value(), 1000));
+    } else if (a == "--out") {
+      o.out = value();
+    } else if (a == "--help" || a == "-h") {
+      std::printf("usage: penumbra-texel-rate [--size WxH] [--map N] [--reps N] [--out FILE]\n");
+      std::exit(0);
+    } else {
+      throw Error("unknown argument '" + a + "' (--help lists them)");
+    }
+  }
+  return o;
+}
+
+// Least squares y = a + b x.
+std::pair<double, double> fit_line(const std::vector<double>& x, const std::vector<double>& y) {
+  const double n = double(x.size());
+  double sx = 0, sy = 0, sxx = 0, sxy = 0;
+  for (size_t i = 0; i < x.size(); ++i) {
+    sx += x[i];
+    sy += y[i];
+    sxx += x[i] * x[i];
+    sxy += x[i] * y[i];
+  }
+  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
+  return {(sy - b * sx) / n, b};
+}
+
+void check_validation(gpu::Context& ctx) {
+  if (!ctx.validation_enabled()) return;
+  auto messages = ctx.validation_sink().take();
+  if (messages.empty()) return;
+  std::string text;
+  for (const auto& m : messages) text += "\n  " + gpu::to_string(m);
+  throw Error("validation layer reported " + std::to_string(messages.size()) + " message(s):" +
+              text);
+}
+
+int run(const Options& o) {
+  gpu::Context ctx;
+  penumbra::shader::Compiler compiler;
+  const auto shader =
+      compiler.compile_file(penumbra::shader::default_shader_dir() / "bench" / "texel_rate.comp");
+
+  gpu::ImageDesc md;
+  md.kind = gpu::ImageKind::image_2d_array;
+  md.format = VK_FORMAT_D32_SFLOAT;
+  md.width = md.height = o.map;
+  md.layers = 1;
+  gpu::Image map(ctx, md);
+  {
+    // Depths that vary per texel, so compare taps are neither all lit nor all shadowed.
+    std::vector<float> depth(size_t{o.map} * o.map);
+    std::mt19937 rng(7);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (auto& d : depth) d = u(rng);
+    map.upload_floats(depth);
+  }
+  gpu::ImageDesc rd;
+  rd.format = VK_FORMAT_R32_SFLOAT;
+  rd.width = o.width;
+  rd.height = o.height;
+  rd.usage = VK_IMAGE_USAGE_STORAGE_BIT;
+  gpu::Image result(ctx, rd);
+  gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) { result.transition(cmd, VK_IMAGE_LAYOUT_GENERAL); });
+
+  gpu::SamplerDesc cd;
+  cd.filter = VK_FILTER_LINEAR;
+  cd.compare = true;
+  cd.compare_op = VK_COMPARE_OP_GREATER_OR_EQUAL;
+  gpu::Sampler compare(ctx, cd);
+  gpu::Sampler nearest(ctx, gpu::SamplerDesc{});
+
+  const VkShaderStageFlags cs = VK_SHADER_STAGE_COMPUTE_BIT;
+  gpu::PipelineLayout layout(ctx,
+                             {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
+                               {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
+                               {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}}},
+                             sizeof(Push), cs);
+  gpu::ComputePipeline pipeline(ctx, shader.spirv, layout);
+  gpu::DescriptorPool pool(ctx, 1);
+  VkDescriptorSet set = pool.allocate(layout.set_layout(0));
+  gpu::DescriptorWriter()
+      .combined_image(0, map.view(), compare.handle())
+      .combined_image(1, map.view(), nearest.handle())
+      .storage_image(2, result.view())
+      .update(ctx, set);
+
+  const uint32_t reps = uint32_t(o.reps);
+  gpu::TimestampPool timestamps(ctx, reps + 1);
+  const double pixels = double(o.width) * o.height;
+  // One shadow texel per screen pixel: the scale a resolve sees where the map is well matched.
+  const float texels_per_pixel = 1.0f;
+
+  struct Point {
+    int mode, n;
+    double ms;
+  };
+  std::vector<Point> points;
+  const int max_n = 8;
+  for (int mode = 0; mode < 2; ++mode) {
+    for (int n = 1; n <= max_n; ++n) {
+      const Push push{{int32_t(o.width), int32_t(o.height)}, n, mode, texels_per_pixel};
+      gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) {
+        timestamps.reset(cmd);
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.handle());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set,
+                                0, nullptr);
+        vkCmdPushConstants(cmd, layout.handle(), cs, 0, sizeof(Push), &push);
+        VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
+        b.srcStageMask = b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
+        b.srcAccessMask = b.dstAccessMask = VK_ACCESS_2_SHADER_STORAGE_WRITE_BIT;
+        VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+        dep.memoryBarrierCount = 1;
+        dep.pMemoryBarriers = &b;
+        // Dispatch 0 warms up (caches, clocks); timestamps 0..reps bracket the timed ones.
+        for (uint32_t r = 0; r <= reps; ++r) {
+          if (r > 0) timestamps.write(cmd, r - 1);
+          vkCmdDispatch(cmd, (o.width + 7) / 8, (o.height + 7) / 8, 1);
+          vkCmdPipelineBarrier2(cmd, &dep);
+        }
+        timestamps.write(cmd, reps);
+      });
+      const auto ns = timestamps.read_ns(reps + 1);
+      std::vector<double> ms;
+      for (uint32_t r = 0; r < reps; ++r) ms.push_back((ns[r + 1] - ns[r]) * 1e-6);
+      points.push_back({mode, n, median(ms)});
+      check_validation(ctx);
+    }
+  }
+
+  const char* kinds[2] = {"compare", "fetch"};
+  std::ostringstream json;
+  json << "{\n \"device\": \"" << ctx.info().name << "\",\n \"driver\": \"" << ctx.info().driver_name
+       << "\",\n \"width\": " << o.width << ",\n \"height\": " << o.height
+       << ",\n \"map\": " << o.map << ",\n \"reps\": " << o.reps
+       << ",\n \"texels_per_pixel\": " << texels_per_pixel << ",\n \"kinds\": {";
+  std::printf("device: %s (%s), %ux%u pixels, %u^2 D32 map, median of %d dispatches\n",
+              ctx.info().name.c_str(), ctx.info().driver_name.c_str(), o.width, o.height, o.map,
+              o.reps);
+  std::printf("%-8s %6s %10s %14s\n", "kind", "fetches", "ms", "Gfetch/s");
+  for (int mode = 0; mode < 2; ++mode) {
+    std::vector<double> x, y;
+    json << (mode ? "," : "") << "\n  \"" << kinds[mode] << "\": {\"points\": [";
+    bool first = true;
+    for (const auto& p : points) {
+      if (p.mode != mode) continue;
+      const double fetches = double(p.n) * p.n;
+      x.push_back(fetches);
+      y.push_back(p.ms);
+      const double rate = pixels * fetches / (p.ms * 1e-3) * 1e-9;
+      std::printf("%-8s %6.0f %10.4f %14.1f\n", kinds[mode], fetches, p.ms, rate);
+      json << (first ? "" : ", ") << "{\"fetches_per_pixel\": " << fetches << ", \"ms\": " << p.ms
+           << "}";
+      first = false;
+    }
+    // The marginal cost of one fetch per pixel over the frame, and the fixed cost of a pass.
+    const auto [base_ms, ms_per_fetch] = fit_line(x, y);
+    const double rate = pixels / (ms_per_fetch * 1e-3) * 1e-9;
+    std::printf("%-8s fit: %.4f ms + %.5f ms per fetch per pixel = %.1f Gfetch/s\n", kinds[mode],
+                base_ms, ms_per_fetch, rate);
+    json << "], \"base_ms\": " << base_ms << ", \"ms_per_fetch_per_pixel\": " << ms_per_fetch
+         << ", \"gfetch_per_s\": " << rate << "}";
+  }
+  json << "\n }\n}\n";
+  if (!o.out.empty()) {
+    const std::filesystem::path out(o.out);
+    const std::filesystem::path tmp = out.string() + ".tmp";
+    {
+      std::ofstream f(tmp);
+      f << json.str();
+      f.close();
+      if (!f) throw Error(o.out + ": cannot write");
+    }
+    std::error_code ec;
+    std::filesystem::rename(tmp, out, ec);
+    if (ec) throw Error(o.out + ": cannot write: " + ec.message());
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return run(parse(argc, argv));
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra-texel-rate: %s\n", e.what());
+    return 1;
+  }
+}
