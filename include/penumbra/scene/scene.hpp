@@ -122,7 +122,7 @@ struct ShadowSettings {
   float blend_band = float(kCascadeDefaults.blend_fraction);  // in [0, 0.5]
   float fade_band = float(kCascadeDefaults.fade_fraction);    // of max_distance, in [0, 1]
   // World-unit biases (docs/accuracy.md has the measurements behind the defaults).
-  float normal_offset_texels = 1.5f;  // texels at the receiver, >= 0
+  float normal_offset_texels = 0.75f;  // texels at the receiver, >= 0
   float slope_bias = 2.0f;            // texels of depth change across one texel, >= 0
   float max_slope_bias = 4.0f;        // bound of the slope term, texels, >= 0
   float constant_bias = 0.0005f;      // metres along the light, >= 0
