@@ -319,14 +319,24 @@ TEST_F(ReferenceGpu, ReceiversTheDepthBufferPutInsideTheirCasterAreMovedOntoIt) 
 // ground. The contact march must not take that ground for an occluder (the prepass marks casters
 // in the normals' alpha): it did, and dithered 13.6% of the lit receivers into false shadow at
 // 1280x720 (0.08% with the mask). At this test's 320x180: 4.4% without the mask, 0.07% with it.
+// The false shadow the contact pass adds is measured against the same frame without the pass:
+// the shadow map itself leaves some on these head-on lit, curved undersides (6.1% of 1354
+// receivers with the scene's 0.25-texel normal offset, 0% at 0.75, where instead 75% of them
+// are falsely lit), and that is the normal offset's trade, not the contact march's.
 TEST_F(ReferenceGpu, ContactShadowsIgnoreSurfacesThatCastNoShadow) {
   scene::Scene s = scene::load_scene(scene::find_scene("default"));
   s.sun->direction = glm::vec3(0.0f, 1.0f, 0.0f);
-  const FrameMeasurement m = measure_at(ctx(), s, 320, 180);
-  ASSERT_EQ(m.lights.size(), 1u);
-  const Metrics& sun = m.lights[0].metrics;
+  ASSERT_GT(s.contact.step_count, 0u);
+  const FrameMeasurement with = measure_at(ctx(), s, 320, 180);
+  s.contact.step_count = 0;
+  const FrameMeasurement without = measure_at(ctx(), s, 320, 180);
+  ASSERT_EQ(with.lights.size(), 1u);
+  ASSERT_EQ(without.lights.size(), 1u);
+  const Metrics& sun = with.lights[0].metrics;
   ASSERT_GT(sun.receivers, 1000u) << "the undersides the sun reaches";
-  EXPECT_LE(sun.false_shadow, 0.01) << sun.to_line();
+  EXPECT_LE(sun.false_shadow - without.lights[0].metrics.false_shadow, 0.01)
+      << "with the contact pass: " << sun.to_line()
+      << "\nwithout: " << without.lights[0].metrics.to_line();
 }
 
 TEST_F(ReferenceGpu, WithoutTheVisibilityOutputMeasuringIsAClearError) {
