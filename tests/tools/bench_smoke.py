@@ -98,6 +98,19 @@ r = subprocess.run([sys.executable, bench, "--scene", bad, "--quick", "--out",
 check(r.returncode != 0, "a scene with a typo must fail")
 check("typo.toml:5" in r.stderr + r.stdout, f"the error names typo.toml:5:\n{r.stderr[-2000:]}")
 
+# The local-map sweep: every spot's and point light's resolution scaled, the format's default
+# (point: 512) where the file gives none, clamped to the format's limits.
+src = os.path.join(work, "local.toml")
+with open(src, "w") as f:
+    f.write('name = "l"\n[[spot]]\nposition = [0, 2, 0]\nresolution = 1024  # map\n'
+            '[[point]]\nposition = [1, 2, 0]\n[[point]]\nposition = [2, 2, 0]\n'
+            'resolution = 6000\n[shadows]\nresolution = 2048\n')
+scaled = mod.scaled_local_maps(src, 2, os.path.join(work, "scaled", "l.toml"))
+with open(scaled) as f:
+    got = [line.strip() for line in f if line.startswith("resolution")]
+check(got == ["resolution = 2048", "resolution = 1024", "resolution = 8192", "resolution = 2048"],
+      f"scaled local maps: {got}")
+
 if failures:
     print("\n".join(failures))
     sys.exit(1)
