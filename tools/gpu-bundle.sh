@@ -16,7 +16,7 @@ find .gpu-bundle -type f -executable -exec strip --strip-unneeded {} +
 mkdir -p ".gpu-bundle/$build/lib"
 for bin in $list; do ldd "$bin"; done | awk '/=> \//{print $3}' | sort -u |
   grep -vE '/(libc|libm|libstdc\+\+|libgcc_s|libvulkan|ld-linux|libpthread|libdl|librt)[.-]' |
-  xargs -r -I{} cp -L {} ".gpu-bundle/$build/lib/"
+  xargs -r -I{} cp -L {} ".gpu-bundle/$build/lib/" || true  # grep finds none: only system libs
 [[ "$build" == build ]] || mv ".gpu-bundle/$build" .gpu-bundle/build
 # The meshes the shipped scenes load (Debian's glmark2-data).
 mkdir -p .gpu-bundle/build/models && cp /usr/share/glmark2/models/{bunny.obj,asteroid-low.3ds,asteroid-high.3ds,cube.3ds} .gpu-bundle/build/models/

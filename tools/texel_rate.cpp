@@ -3,9 +3,10 @@
 // Runs shaders/bench/texel_rate.comp (one invocation per screen pixel, n x n fetches from a
 // depth map on a screen-coherent grid, nothing else) for n = 1..8 and times each dispatch with
 // Vulkan timestamp queries (median of --reps dispatches after a warm-up, a barrier between
-// them). For each fetch kind (compare taps through the renderer's linear compare sampler;
-// texelFetch of the raw depth, as in the PCSS blocker search) it fits time = base + fetches x
-// cost over the points and reports the fetch rate. penumbra-bench divides a filter's fetches by
+// them). For each fetch kind (compare taps of a 2D map through the renderer's linear compare
+// sampler; texelFetch of the raw depth, as in the PCSS blocker search; compare taps of a
+// cube-map array, as the point lights' filters take them) it fits time = base + fetches x cost
+// over the points and reports the fetch rate. penumbra-bench divides a filter's fetches by
 // that rate to get its floor and reports the resolve's measured time over it (the roofline
 // column). Writes --out (JSON, atomically) and prints a table.
 //
@@ -140,6 +141,20 @@ int run(const Options& o) {
     for (auto& d : depth) d = u(rng);
     map.upload_floats(depth);
   }
+  // A cube-map array of one cube, 512^2 faces (the point lights' default), the same depths.
+  gpu::ImageDesc cdesc;
+  cdesc.kind = gpu::ImageKind::cube_array;
+  cdesc.format = VK_FORMAT_D32_SFLOAT;
+  cdesc.width = cdesc.height = 512;
+  cdesc.layers = 6;
+  gpu::Image cube(ctx, cdesc);
+  {
+    std::vector<float> depth(size_t{6} * 512 * 512);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> u(0.0f, 1.0f);
+    for (auto& d : depth) d = u(rng);
+    cube.upload_floats(depth);
+  }
   gpu::ImageDesc rd;
   rd.format = VK_FORMAT_R32_SFLOAT;
   rd.width = o.width;
@@ -159,7 +174,8 @@ int run(const Options& o) {
   gpu::PipelineLayout layout(ctx,
                              {{{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
                                {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs},
-                               {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs}}},
+                               {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, cs},
+                               {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, cs}}},
                              sizeof(Push), cs);
   gpu::ComputePipeline pipeline(ctx, shader.spirv, layout);
   gpu::DescriptorPool pool(ctx, 1);
@@ -168,6 +184,7 @@ int run(const Options& o) {
       .combined_image(0, map.view(), compare.handle())
       .combined_image(1, map.view(), nearest.handle())
       .storage_image(2, result.view())
+      .combined_image(3, cube.view(), compare.handle())
       .update(ctx, set);
 
   const uint32_t reps = uint32_t(o.reps);
@@ -182,7 +199,10 @@ int run(const Options& o) {
   };
   std::vector<Point> points;
   const int max_n = 8;
-  for (int mode = 0; mode < 2; ++mode) {
+  constexpr int kModes = 3;
+  // Cube-map arrays are an optional feature: without it the cube kind is not measured.
+  const int modes = ctx.info().image_cube_array ? kModes : 2;
+  for (int mode = 0; mode < modes; ++mode) {
     for (int n = 1; n <= max_n; ++n) {
       const Push push{{int32_t(o.width), int32_t(o.height)}, n, mode, texels_per_pixel};
       gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) {
@@ -213,7 +233,7 @@ int run(const Options& o) {
     }
   }
 
-  const char* kinds[2] = {"compare", "fetch"};
+  const char* kinds[kModes] = {"compare", "fetch", "cube_compare"};
   std::ostringstream json;
   json << "{\n \"device\": \"" << ctx.info().name << "\",\n \"driver\": \"" << ctx.info().driver_name
        << "\",\n \"width\": " << o.width << ",\n \"height\": " << o.height
@@ -222,8 +242,8 @@ int run(const Options& o) {
   std::printf("device: %s (%s), %ux%u pixels, %u^2 D32 map, median of %d dispatches\n",
               ctx.info().name.c_str(), ctx.info().driver_name.c_str(), o.width, o.height, o.map,
               o.reps);
-  std::printf("%-8s %6s %10s %14s\n", "kind", "fetches", "ms", "Gfetch/s");
-  for (int mode = 0; mode < 2; ++mode) {
+  std::printf("%-12s %7s %10s %10s\n", "kind", "fetches", "ms", "Gfetch/s");
+  for (int mode = 0; mode < modes; ++mode) {
     std::vector<double> x, y;
     json << (mode ? "," : "") << "\n  \"" << kinds[mode] << "\": {\"points\": [";
     bool first = true;
@@ -233,7 +253,7 @@ int run(const Options& o) {
       x.push_back(fetches);
       y.push_back(p.ms);
       const double rate = pixels * fetches / (p.ms * 1e-3) * 1e-9;
-      std::printf("%-8s %6.0f %10.4f %14.1f\n", kinds[mode], fetches, p.ms, rate);
+      std::printf("%-12s %7.0f %10.4f %10.2f\n", kinds[mode], fetches, p.ms, rate);
       json << (first ? "" : ", ") << "{\"fetches_per_pixel\": " << fetches << ", \"ms\": " << p.ms
            << "}";
       first = false;
@@ -241,7 +261,7 @@ int run(const Options& o) {
     // The marginal cost of one fetch per pixel over the frame, and the fixed cost of a pass.
     const auto [base_ms, ms_per_fetch] = fit_line(x, y);
     const double rate = pixels / (ms_per_fetch * 1e-3) * 1e-9;
-    std::printf("%-8s fit: %.4f ms + %.5f ms per fetch per pixel = %.1f Gfetch/s\n", kinds[mode],
+    std::printf("%-12s fit: %.4f ms + %.5f ms per fetch per pixel = %.2f Gfetch/s\n", kinds[mode],
                 base_ms, ms_per_fetch, rate);
     json << "], \"base_ms\": " << base_ms << ", \"ms_per_fetch_per_pixel\": " << ms_per_fetch
          << ", \"gfetch_per_s\": " << rate << "}";

@@ -70,7 +70,7 @@ check(os.path.isfile(rate_path), "texel_rate.json missing")
 if os.path.isfile(rate_path):
     with open(rate_path) as f:
         rate = json.load(f)
-    for kind in ("compare", "fetch"):
+    for kind in ("compare", "fetch", "cube_compare"):
         v = rate["kinds"][kind]["gfetch_per_s"]
         check(math.isfinite(v) and v > 0.0, f"texel rate {kind}: {v}")
 
