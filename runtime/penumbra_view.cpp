@@ -12,9 +12,11 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
+#include <sstream>
 #include <map>
 #include <memory>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
@@ -485,7 +487,7 @@ int run(int argc, char** argv) {
 
   std::printf("\nGPU time per pass on %s, %ux%u, median of %u frame(s):\n", ctx.info().name.c_str(),
               renderer.width(), renderer.height(), frames);
-  std::ofstream csv(out / "timings.csv");
+  std::ostringstream csv;
   csv << "device,scene,width,height,pass,median_ms,frames\n";
   double total = 0;
   for (const auto& name : order) {
@@ -496,6 +498,7 @@ int run(int argc, char** argv) {
         << renderer.height() << ',' << name << ',' << m << ',' << frames << "\n";
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
+  penumbra::write_text_atomic(out / "timings.csv", csv.str());
   std::printf("\nwrote:\n");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());

@@ -17,9 +17,8 @@
 #include <algorithm>
 #include <cstdio>
 #include <cstdlib>
-#include <filesystem>
-#include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/pipeline.hpp>
@@ -267,19 +266,7 @@ int run(const Options& o) {
          << ", \"gfetch_per_s\": " << rate << "}";
   }
   json << "\n }\n}\n";
-  if (!o.out.empty()) {
-    const std::filesystem::path out(o.out);
-    const std::filesystem::path tmp = out.string() + ".tmp";
-    {
-      std::ofstream f(tmp);
-      f << json.str();
-      f.close();
-      if (!f) throw Error(o.out + ": cannot write");
-    }
-    std::error_code ec;
-    std::filesystem::rename(tmp, out, ec);
-    if (ec) throw Error(o.out + ": cannot write: " + ec.message());
-  }
+  if (!o.out.empty()) penumbra::write_text_atomic(o.out, json.str());
   return 0;
 }
 

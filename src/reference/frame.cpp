@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/reference/frame.hpp>
+#include <sstream>
 #include <system_error>
 
 namespace penumbra::reference {
@@ -89,18 +91,13 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
          ", \"from_cache\": " + (l.reference.from_cache ? "true" : "false") + "}";
     lights_json += (lights_json.empty() ? "\n    " : ",\n    ") + j;
   }
-  const fs::path json = dir / "metrics.json", tmp = dir / "metrics.json.tmp";
-  {
-    std::ofstream out(tmp, std::ios::trunc);
-    out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
-        << "\"width\": " << m.width << ", \"height\": " << m.height
-        << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json
-        << "\n  ]\n}\n";
-    out.flush();
-    if (!out) throw Error("cannot write " + tmp.string());
-  }
-  fs::rename(tmp, json, ec);
-  if (ec) throw Error("cannot move " + tmp.string() + " to " + json.string() + ": " + ec.message());
+  const fs::path json = dir / "metrics.json";
+  std::ostringstream out;
+  out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
+      << "\"width\": " << m.width << ", \"height\": " << m.height
+      << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json
+      << "\n  ]\n}\n";
+  write_text_atomic(json, out.str());
   written.push_back(json);
   return written;
 }
