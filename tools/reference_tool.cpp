@@ -3,12 +3,14 @@
 // metrics.json next to lit.png; one line of metrics per light on stdout.
 #include <unistd.h>
 
+#include <algorithm>
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/validation.hpp>
 #include <penumbra/reference/frame.hpp>
+#include <penumbra/reference/temporal.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -30,6 +32,8 @@ struct Options {
   bool cache = true;
   fs::path cache_dir;
   std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
+  std::vector<penumbra::reference::CameraPath> flicker;  // --flicker
+  penumbra::reference::FlickerOptions flicker_options;
 };
 
 void usage(FILE* f) {
@@ -40,6 +44,7 @@ void usage(FILE* f) {
       "                          [--light NAME]... [--threshold T] [--threads N]\n"
       "                          [--terminator smooth|geometric]\n"
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
+      "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
       "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
@@ -56,6 +61,11 @@ void usage(FILE* f) {
       "  --terminator where shadow rays start on smooth-shaded meshes: on the smooth surface\n"
       "               the vertex normals describe (default) or on the flat triangles\n"
       "               (docs/accuracy.md, the shadow terminator)\n"
+      "  --flicker    also measure temporal stability along these camera paths (translate-1mm,\n"
+      "               translate-1cm, yaw-0.05deg, sun-0.05deg, or all): the fraction of\n"
+      "               shadow-edge pixels whose visibility changes by more than 8/255 between\n"
+      "               frames, after reprojection; into metrics.json's \"flicker\"\n"
+      "  --flicker-frames  frames per path (default 16)\n"
       "  --cache      the reference cache (default $PENUMBRA_REFERENCE_CACHE or\n"
       "               ~/.cache/penumbra/reference); --no-cache traces every time\n");
 }
@@ -124,6 +134,20 @@ Options parse(int argc, char** argv) {
       o.cache = false;
     else if (a == "--set")
       o.sets.push_back(penumbra::scene::split_set_flag(value()));
+    else if (a == "--flicker") {
+      const std::string v = value();
+      if (v == "all") {
+        o.flicker = penumbra::reference::standard_paths();
+      } else {
+        size_t start = 0;
+        while (start <= v.size()) {
+          const size_t comma = std::min(v.find(',', start), v.size());
+          o.flicker.push_back(penumbra::reference::find_path(v.substr(start, comma - start)));
+          start = comma + 1;
+        }
+      }
+    } else if (a == "--flicker-frames")
+      o.flicker_options.frames = uint32_t(number(a, value(), 2, 10000));
     else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
@@ -204,6 +228,26 @@ int run(int argc, char** argv) {
     first_light = false;
   }
   header << "}";
+  // Temporal stability along the asked-for paths (after the measured frame: the paths render
+  // frames 0..N-1 and put the scene back).
+  if (!o.flicker.empty()) {
+    header << ", \"flicker\": {";
+    for (size_t p = 0; p < o.flicker.size(); ++p) {
+      const auto results = penumbra::reference::measure_flicker(renderer, o.flicker[p],
+                                                                o.flicker_options);
+      header << (p ? ", " : "") << json_string(o.flicker[p].name) << ": {";
+      for (size_t i = 0; i < results.size(); ++i) {
+        const auto& f = results[i];
+        header << (i ? ", " : "") << json_string(f.light) << ": {\"fraction\": " << f.fraction()
+               << ", \"edge_pixels\": " << f.edge_pixels << ", \"changed\": " << f.changed << "}";
+        std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels over %u frames\n",
+                    f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
+                    o.flicker_options.frames);
+      }
+      header << "}";
+    }
+    header << "}, \"flicker_frames\": " << o.flicker_options.frames;
+  }
   penumbra::reference::write_measurement(m, o.out, header.str());
   for (const auto& l : m.lights) {
     std::printf("%s  (%s%llu rays, %.1f s)\n", l.metrics.to_line().c_str(),

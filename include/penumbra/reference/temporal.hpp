@@ -1,0 +1,72 @@
+#pragma once
+
+// Temporal stability: how much a frame's shadows change when the camera or the sun moves a
+// little. A still scene seen from a moving camera should keep every surface point's visibility;
+// what changes is flicker (cascades re-fitted, texels snapping, per-frame noise).
+//
+// For each pair of consecutive frames, each pixel of the later frame is reprojected into the
+// earlier one through the depth buffers: its world position projected with the earlier camera,
+// onto the four nearest pixels. Those with any bilinear weight (above 0.001) must lie on the
+// same surface (within 2% of the distance to the camera plus 2 mm), and their visibilities give
+// the earlier frame's range there (a TAA resolve's neighbourhood clamp: a point-sampled edge
+// seen from a camera moved a fraction of a pixel stays inside it). Shadow-edge pixels are those
+// whose 3x3 neighbourhood's visibility spans 0.5 or more, or whose own visibility is in
+// (0.02, 0.98) (the penumbrae). Flicker is the fraction of them whose visibility lies outside
+// the earlier range by more than `threshold` (8/255 by default).
+
+#include <penumbra/reference/reference.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <string>
+#include <vector>
+
+namespace penumbra::reference {
+
+enum class Motion {
+  translate,    // the camera and its target move sideways (along the view's right vector)
+  yaw,          // the camera turns about the scene's up axis
+  sun_azimuth,  // the sun turns about the world's up axis (no sun: not measured)
+};
+
+struct CameraPath {
+  std::string name;  // "translate-1mm"
+  Motion motion = Motion::translate;
+  double step = 0.0;  // per frame: metres (translate) or degrees (yaw, sun_azimuth)
+};
+
+// The paths of the render checks: 1 mm and 1 cm sideways, 0.05 degrees of yaw, and the sun's
+// azimuth turning 0.05 degrees a frame.
+std::vector<CameraPath> standard_paths();
+// The path named `name` among standard_paths(); throws penumbra::Error listing them.
+CameraPath find_path(const std::string& name);
+
+struct FlickerOptions {
+  uint32_t frames = 16;           // rendered along the path (>= 2): frames - 1 pairs
+  float threshold = 8.0f / 255.0f;  // a change above this is flicker
+};
+
+struct Flicker {
+  std::string path;
+  std::string light;       // "sun", "spot0", …
+  size_t edge_pixels = 0;  // shadow-edge pixels reprojected, over every pair of frames
+  size_t changed = 0;      // of those, changed by more than the threshold
+  double fraction() const { return edge_pixels ? double(changed) / double(edge_pixels) : 0.0; }
+};
+
+// Renders options.frames frames along `path` (frame k: the scene's camera or sun moved k
+// steps, render(k)), then puts the scene back as it was. The renderer needs
+// RendererOptions::visibility_output. One result per light of the scene that the renderer
+// draws (none for sun_azimuth in a scene without a sun).
+std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPath& path,
+                                     const FlickerOptions& options = {});
+
+// One pair of frames: the counts for `current` against `previous` (exposed for tests).
+struct FrameSample {
+  Receivers receivers;          // from the frame's G-buffer
+  render::FrameCamera camera;   // the matrices the GPU used
+  std::vector<float> visibility;  // the light's, per pixel
+  std::vector<uint8_t> reached;   // 1 where the light reaches the receiver
+};
+void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
+                   size_t& edge_pixels, size_t& changed);
+
+}  // namespace penumbra::reference
