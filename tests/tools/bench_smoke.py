@@ -53,6 +53,13 @@ if os.path.isfile(os.path.join(out, "bench.csv")):
             check(int(row["fetches_per_pixel"]) == want,
                   f"{row['config']}: {row['fetches_per_pixel']} fetches per pixel, expected {want}")
         check(row["resolve_pass"] == "shadow-resolve", f"{row['config']}: {row['resolve_pass']}")
+        # The flicker column: the 1 cm path, a fraction in [0, 1] over some shadow-edge pixels.
+        flicker = dict(item.split("=", 1) for item in row.get("flicker", "").split(";") if item)
+        check("translate-1cm" in flicker, f"{row['config']}: flicker {row.get('flicker')}")
+        if "translate-1cm" in flicker:
+            fraction, changed, edges = flicker["translate-1cm"].split("/")
+            check(0.0 <= float(fraction) <= 1.0 and int(edges) > 0 and 0 <= int(changed) <= int(edges),
+                  f"{row['config']}: flicker {flicker['translate-1cm']}")
         for key in ("resolve_ms", "resolve_floor_ms", "resolve_over_floor"):
             v = float(row[key])
             check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")
@@ -65,6 +72,7 @@ if os.path.isfile(os.path.join(out, "report.md")):
         report = f.read()
     check("![default](default.png)" in report and "Default:" in report, "report.md content")
     check("Roofline" in report and "over the floor" in report, "report.md has the roofline")
+    check("Flicker:" in report and "translate-1cm" in report, "report.md has the flicker table")
 rate_path = os.path.join(out, "texel_rate.json")
 check(os.path.isfile(rate_path), "texel_rate.json missing")
 if os.path.isfile(rate_path):
