@@ -243,6 +243,10 @@ int run(int argc, char** argv) {
         std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels over %u frames\n",
                     f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
                     o.flicker_options.frames);
+        fs::create_directories(o.out);
+        penumbra::render::write_png(
+            o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,
+            penumbra::reference::flicker_image(f, m.lit, o.flicker_options.frames - 1));
       }
       header << "}";
     }

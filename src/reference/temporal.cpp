@@ -17,6 +17,9 @@ constexpr float kPenumbraLow = 0.02f, kPenumbraHigh = 0.98f, kEdgeSpan = 0.5f;
 // Reprojected neighbours must lie on the receiver's surface: within this fraction of the
 // distance to the camera, plus a constant (metres).
 constexpr double kSurfaceFraction = 0.02, kSurfaceConstant = 0.002;
+// ... and face the same way (cosine between the normals): the other side of a crease (a room's
+// corner, a box's edge) is near in distance but another surface.
+constexpr double kSameNormal = 0.9;
 // Bilinear neighbours lighter than this do not widen the previous frame's range (a still camera
 // puts all the weight on one pixel, up to rounding).
 constexpr double kNeighbourWeight = 1e-3;
@@ -78,7 +81,7 @@ CameraPath find_path(const std::string& name) {
 }
 
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
-                   size_t& edge_pixels, size_t& changed) {
+                   size_t& edge_pixels, size_t& changed, std::vector<uint32_t>* per_pixel) {
   const Receivers& pr = previous.receivers;
   const Receivers& cr = current.receivers;
   const uint32_t w = cr.width, h = cr.height;
@@ -129,15 +132,37 @@ void count_flicker(const FrameSample& previous, const FrameSample& current, floa
         const double weight = ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay);
         if (weight <= kNeighbourWeight) continue;
         same_surface = usable(pr, previous.reached, j) &&
-                       glm::length(pr.origin + pr.position[j] - world) <= tolerance;
+                       glm::length(pr.origin + pr.position[j] - world) <= tolerance &&
+                       glm::dot(pr.normal[j], cr.normal[i]) >= kSameNormal;
         prev_lo = std::min(prev_lo, double(previous.visibility[j]));
         prev_hi = std::max(prev_hi, double(previous.visibility[j]));
       }
       if (!same_surface || prev_hi < prev_lo) continue;
       ++edge_pixels;
-      if (double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold))
+      if (double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold)) {
         ++changed;
+        if (per_pixel && per_pixel->size() == cr.size()) ++(*per_pixel)[i];
+      }
     }
+}
+
+std::vector<uint8_t> flicker_image(const Flicker& flicker, std::span<const uint8_t> lit,
+                                   uint32_t pairs) {
+  const size_t n = size_t{flicker.width} * flicker.height;
+  if (lit.size() != n * 4 || flicker.changed_per_pixel.size() != n)
+    throw Error("flicker_image: the frame and the counts differ in size");
+  std::vector<uint8_t> out(n * 4);
+  for (size_t i = 0; i < n; ++i) {
+    const float grey =
+        0.5f * (0.299f * lit[4 * i] + 0.587f * lit[4 * i + 1] + 0.114f * lit[4 * i + 2]);
+    const float f = pairs ? std::min(1.0f, float(flicker.changed_per_pixel[i]) / float(pairs)) : 0;
+    const float k = f > 0.0f ? 0.35f + 0.65f * f : 0.0f;  // any flicker shows
+    out[4 * i] = uint8_t(std::lround(grey * (1.0f - k) + 255.0f * k));
+    out[4 * i + 1] = uint8_t(std::lround(grey * (1.0f - k)));
+    out[4 * i + 2] = uint8_t(std::lround(grey * (1.0f - k)));
+    out[4 * i + 3] = 255;
+  }
+  return out;
 }
 
 std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPath& path,
@@ -153,7 +178,13 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
   for (const auto& l : scene_lights(s))
     if (drawn(l)) lights.push_back(l);
   std::vector<Flicker> out;
-  for (const auto& l : lights) out.push_back({path.name, l.name(), 0, 0});
+  for (const auto& l : lights) {
+    Flicker f{path.name, l.name()};
+    f.width = renderer.width();
+    f.height = renderer.height();
+    f.changed_per_pixel.assign(size_t{f.width} * f.height, 0);
+    out.push_back(std::move(f));
+  }
 
   const scene::Camera camera = s.camera;
   const std::optional<scene::Sun> sun = s.sun;
@@ -177,7 +208,8 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
         for (size_t i = 0; i < classes.size(); ++i)
           f.reached[i] = classes[i] != ReceiverClass::none;
         if (k > 0)
-          count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed);
+          count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed,
+                        &out[li].changed_per_pixel);
       }
       std::swap(previous, current);
     }

@@ -129,6 +129,11 @@ TEST(Flicker, OnlyReprojectablePixelsTheLightReachesCount) {
   FrameSample lower = a;
   for (auto& p : lower.receivers.position) p.y -= 10.0;
   EXPECT_EQ(count(lower, a).edge, 0u);
+  // The previous frame saw a surface at the same place facing another way (the other side of
+  // a crease: a room's corner): not the same surface.
+  FrameSample turned = a;
+  for (auto& n : turned.receivers.normal) n = glm::dvec3(1.0, 0.0, 0.0);
+  EXPECT_EQ(count(turned, a).edge, 0u);
 }
 
 TEST(Flicker, FramesOfDifferentSizesAreAClearError) {
@@ -137,6 +142,20 @@ TEST(Flicker, FramesOfDifferentSizesAreAClearError) {
   b.visibility.pop_back();
   size_t e = 0, c = 0;
   EXPECT_THROW(count_flicker(a, b, 0.03f, e, c), Error);
+}
+
+TEST(Flicker, TheImageMarksWhereItFlickered) {
+  Flicker f;
+  f.width = 2;
+  f.height = 1;
+  f.changed_per_pixel = {0, 3};
+  const std::vector<uint8_t> lit = {100, 100, 100, 255, 100, 100, 100, 255};
+  const std::vector<uint8_t> img = flicker_image(f, lit, 3);
+  ASSERT_EQ(img.size(), 8u);
+  EXPECT_EQ(img[0], img[1]) << "no flicker: grey";
+  EXPECT_EQ(img[4], 255) << "every pair flickered: red";
+  EXPECT_EQ(img[5], 0);
+  EXPECT_THROW((void)flicker_image(f, std::vector<uint8_t>(4), 3), Error);
 }
 
 TEST(Flicker, PathsAreFoundByName) {

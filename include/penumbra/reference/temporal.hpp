@@ -7,7 +7,8 @@
 // For each pair of consecutive frames, each pixel of the later frame is reprojected into the
 // earlier one through the depth buffers: its world position projected with the earlier camera,
 // onto the four nearest pixels. Those with any bilinear weight (above 0.001) must lie on the
-// same surface (within 2% of the distance to the camera plus 2 mm), and their visibilities give
+// same surface (within 2% of the distance to the camera plus 2 mm, normals within 26 degrees:
+// not across a crease), and their visibilities give
 // the earlier frame's range there (a TAA resolve's neighbourhood clamp: a point-sampled edge
 // seen from a camera moved a fraction of a pixel stays inside it). Shadow-edge pixels are those
 // whose 3x3 neighbourhood's visibility spans 0.5 or more, or whose own visibility is in
@@ -16,6 +17,7 @@
 
 #include <penumbra/reference/reference.hpp>
 #include <penumbra/render/renderer.hpp>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -49,6 +51,8 @@ struct Flicker {
   std::string light;       // "sun", "spot0", …
   size_t edge_pixels = 0;  // shadow-edge pixels reprojected, over every pair of frames
   size_t changed = 0;      // of those, changed by more than the threshold
+  uint32_t width = 0, height = 0;
+  std::vector<uint32_t> changed_per_pixel;  // how many of the frame pairs flickered there
   double fraction() const { return edge_pixels ? double(changed) / double(edge_pixels) : 0.0; }
 };
 
@@ -66,7 +70,14 @@ struct FrameSample {
   std::vector<float> visibility;  // the light's, per pixel
   std::vector<uint8_t> reached;   // 1 where the light reaches the receiver
 };
+// per_pixel (width x height of `current`), when given, counts the flickering pixels.
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
-                   size_t& edge_pixels, size_t& changed);
+                   size_t& edge_pixels, size_t& changed,
+                   std::vector<uint32_t>* per_pixel = nullptr);
+
+// A picture of where a path flickered: the frame in grey, each pixel red in proportion to the
+// pairs of frames in which it flickered (RGBA8, `lit` is the measured frame).
+std::vector<uint8_t> flicker_image(const Flicker& flicker, std::span<const uint8_t> lit,
+                                   uint32_t pairs);
 
 }  // namespace penumbra::reference
