@@ -50,21 +50,19 @@ TEST_F(TemporalGpu, APerFrameRotatingFilterFlickersOnAStillCamera) {
   EXPECT_GT(f.fraction(), 0.05) << f.changed << " of " << f.edge_pixels;
 }
 
-// Cascades that move by whole texels keep the shadows still while the sun turns and the camera
-// yaws; without the snapping every texel of every cascade moves by a fraction each frame. At
-// 640x360, 8 frames: sun 0.54% against 4.84%, yaw 0.46% against 1.23% (sideways moves are the
-// same either way: the cascades' centres follow the camera by whole texels both times).
+// Cascades that move by whole texels keep the shadows still while the sun turns; without the
+// snapping every texel of every cascade moves by a fraction each frame. Here (320x180, 4
+// frames) 12 of 4711 edge pixels flicker against 126 of 4686. At 640x360 over 8 frames: sun
+// 0.54% against 4.84%, and yaw 0.46% against 1.23% (too few pixels at this size to test).
 TEST_F(TemporalGpu, SnappingTheCascadesToTexelsKeepsTheShadowsStill) {
-  for (const char* name : {"sun-0.05deg", "yaw-0.05deg"}) {
-    scene::Scene s = shipped("default");
-    const CameraPath path = find_path(name);
-    const Flicker snapped = sun_flicker(ctx(), s, path, 6);
-    scene::set_param(s, "shadows.snap_to_texels", "false");
-    const Flicker unsnapped = sun_flicker(ctx(), s, path, 6);
-    EXPECT_GT(unsnapped.fraction(), 1.5 * snapped.fraction())
-        << name << ": snapped " << snapped.changed << " of " << snapped.edge_pixels
-        << ", unsnapped " << unsnapped.changed << " of " << unsnapped.edge_pixels;
-  }
+  scene::Scene s = shipped("default");
+  const CameraPath path = find_path("sun-0.05deg");
+  const Flicker snapped = sun_flicker(ctx(), s, path, 4);
+  scene::set_param(s, "shadows.snap_to_texels", "false");
+  const Flicker unsnapped = sun_flicker(ctx(), s, path, 4);
+  EXPECT_GT(unsnapped.fraction(), 3.0 * snapped.fraction())
+      << "snapped " << snapped.changed << " of " << snapped.edge_pixels << ", unsnapped "
+      << unsnapped.changed << " of " << unsnapped.edge_pixels;
 }
 
 TEST_F(TemporalGpu, MeasuringPutsTheCameraAndTheSunBack) {
@@ -72,7 +70,8 @@ TEST_F(TemporalGpu, MeasuringPutsTheCameraAndTheSunBack) {
   render::Renderer r(ctx(), s, small());
   const scene::Camera before = r.scene().camera;
   const glm::vec3 sun = r.scene().sun->direction;
-  for (const auto& path : standard_paths()) (void)measure_flicker(r, path, {2});
+  // A camera path and the sun's (the other two move the camera the same way).
+  for (const char* name : {"yaw-0.05deg", "sun-0.05deg"}) (void)measure_flicker(r, find_path(name), {2});
   EXPECT_EQ(r.scene().camera.position, before.position);
   EXPECT_EQ(r.scene().camera.target, before.target);
   EXPECT_EQ(r.scene().sun->direction, sun);
