@@ -498,7 +498,7 @@ int run(int argc, char** argv) {
         << renderer.height() << ',' << name << ',' << m << ',' << frames << "\n";
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
-  penumbra::write_text_atomic(out / "timings.csv", csv.str());
+  penumbra::write_file_atomic(out / "timings.csv", csv.str());
   std::printf("\nwrote:\n");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());

@@ -266,7 +266,7 @@ int run(const Options& o) {
          << ", \"gfetch_per_s\": " << rate << "}";
   }
   json << "\n }\n}\n";
-  if (!o.out.empty()) penumbra::write_text_atomic(o.out, json.str());
+  if (!o.out.empty()) penumbra::write_file_atomic(o.out, json.str());
   return 0;
 }
 

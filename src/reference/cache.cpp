@@ -6,6 +6,7 @@
 #include <cstring>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/reference/reference.hpp>
 #include <system_error>
 
@@ -99,31 +100,23 @@ void cache_store(const fs::path& dir, uint64_t key, const Visibility& v) {
   fs::create_directories(dir, ec);
   if (ec) throw Error("reference cache: cannot create " + dir.string() + ": " + ec.message());
   const fs::path target = file_for(dir, key);
-  const fs::path tmp = target.string() + ".tmp" + std::to_string(::getpid());
-  {
-    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    if (!out) throw Error("reference cache: cannot write " + tmp.string());
-    const uint64_t count = v.value.size(), rays = v.rays;
-    out.write(kMagic, 8);
-    out.write(reinterpret_cast<const char*>(&kVersion), sizeof kVersion);
-    out.write(reinterpret_cast<const char*>(&key), sizeof key);
-    out.write(reinterpret_cast<const char*>(&count), sizeof count);
-    out.write(reinterpret_cast<const char*>(&rays), sizeof rays);
-    out.write(reinterpret_cast<const char*>(v.value.data()), std::streamsize(count * sizeof(float)));
-    out.write(reinterpret_cast<const char*>(v.std_error.data()),
-              std::streamsize(count * sizeof(float)));
-    out.write(reinterpret_cast<const char*>(v.samples.data()),
-              std::streamsize(count * sizeof(uint32_t)));
-    out.flush();
-    if (!out) {
-      fs::remove(tmp, ec);
-      throw Error("reference cache: writing " + tmp.string() + " failed");
-    }
-  }
-  fs::rename(tmp, target, ec);
-  if (ec) {
-    fs::remove(tmp, ec);
-    throw Error("reference cache: cannot move " + tmp.string() + " to " + target.string());
+  const uint64_t count = v.value.size(), rays = v.rays;
+  std::string bytes;
+  const auto put = [&](const void* data, size_t size) {
+    bytes.append(static_cast<const char*>(data), size);
+  };
+  put(kMagic, 8);
+  put(&kVersion, sizeof kVersion);
+  put(&key, sizeof key);
+  put(&count, sizeof count);
+  put(&rays, sizeof rays);
+  put(v.value.data(), count * sizeof(float));
+  put(v.std_error.data(), count * sizeof(float));
+  put(v.samples.data(), count * sizeof(uint32_t));
+  try {
+    write_file_atomic(target, bytes);
+  } catch (const Error& e) {
+    throw Error(std::string("reference cache: ") + e.what());
   }
 }
 

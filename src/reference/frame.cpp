@@ -97,7 +97,7 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
       << "\"width\": " << m.width << ", \"height\": " << m.height
       << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json
       << "\n  ]\n}\n";
-  write_text_atomic(json, out.str());
+  write_file_atomic(json, out.str());
   written.push_back(json);
   return written;
 }

@@ -1,6 +1,6 @@
 #pragma once
-// Atomic text output: every file a tool writes for a reader (timings, metrics, reports) goes
-// through here, so a reader never sees half a file and a failed write is an error.
+// Atomic file output: every file written for a reader (timings, metrics, the reference cache)
+// goes through here, so a reader never sees half a file and a failed write is an error.
 #include <filesystem>
 #include <fstream>
 #include <penumbra/core/error.hpp>
@@ -8,16 +8,19 @@
 #include <string_view>
 #include <system_error>
 
+#include <unistd.h>
+
 namespace penumbra {
 
-// Writes `text` to `path` through `path`.tmp and a rename. Throws penumbra::Error naming the
-// path when the file cannot be written or moved; the temporary file is removed then.
-inline void write_text_atomic(const std::filesystem::path& path, std::string_view text) {
-  const std::filesystem::path tmp = path.string() + ".tmp";
+// Writes `bytes` to `path` through a temporary file next to it (named for this process, so
+// processes writing the same path do not share one) and a rename. Throws penumbra::Error
+// naming the path when the file cannot be written or moved; the temporary file is removed then.
+inline void write_file_atomic(const std::filesystem::path& path, std::string_view bytes) {
+  const std::filesystem::path tmp = path.string() + ".tmp" + std::to_string(::getpid());
   std::error_code ec;
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
-    out.write(text.data(), std::streamsize(text.size()));
+    out.write(bytes.data(), std::streamsize(bytes.size()));
     out.flush();
     if (!out) {
       std::filesystem::remove(tmp, ec);
