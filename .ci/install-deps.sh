@@ -6,7 +6,7 @@ packages=(
   glslang-dev glslang-tools libspirv-cross-c-shared-dev spirv-tools
   mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers vulkan-tools
   libglm-dev libglfw3-dev libgtest-dev libgmock-dev xvfb libstb-dev
-  libtomlplusplus-dev libtinyobjloader-dev glmark2-data libimgui-dev libembree-dev
+  libtomlplusplus-dev libtinyobjloader-dev glmark2-data libimgui-dev libembree-dev libpng-dev
   python3 python3-matplotlib
 )
 missing=()

@@ -1,5 +1,6 @@
 // Measuring a rendered frame against the reference, and writing what people look at.
 #include <algorithm>
+#include <cstdio>
 #include <fstream>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
@@ -9,6 +10,50 @@
 
 namespace penumbra::reference {
 namespace fs = std::filesystem;
+
+uint32_t visibility_slot(const LightRef& l) {
+  return l.kind == LightKind::sun    ? render::kSunVisibilitySlot
+         : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
+                                     : render::point_visibility_slot(l.index);
+}
+
+double umbra_kept(const LightMeasurement& l, size_t* umbra_count) {
+  size_t umbra = 0, kept = 0;
+  for (size_t i = 0; i < l.classes.size(); ++i) {
+    if (l.classes[i] != ReceiverClass::lit || !(l.reference.value[i] < 0.5f)) continue;
+    ++umbra;
+    kept += l.gpu[i] < 0.5f;
+  }
+  if (umbra_count) *umbra_count = umbra;
+  return umbra == 0 ? 1.0 : double(kept) / double(umbra);
+}
+
+std::vector<std::string> budget_violations(const LightMeasurement& l, const AccuracyBudget& b) {
+  std::vector<std::string> out;
+  auto check = [&](const char* what, double value, double bound, bool percent) {
+    if (value <= bound) return;  // NaN fails too
+    char line[160];
+    if (percent)
+      std::snprintf(line, sizeof line, "%s %.2f%% > %.2f%%", what, 100.0 * value, 100.0 * bound);
+    else
+      std::snprintf(line, sizeof line, "%s %.4f > %.4f", what, value, bound);
+    out.push_back(line);
+  };
+  check("false light", l.metrics.false_light, b.false_light, true);
+  check("false shadow", l.metrics.false_shadow, b.false_shadow, true);
+  if (l.area.hard())
+    check("misclassified", l.metrics.misclassified, b.misclassified, true);
+  else
+    check("mean |dV|", l.metrics.mean_abs, b.mean_abs, false);
+  const double kept = umbra_kept(l);
+  if (!(kept >= b.umbra_kept)) {
+    char line[160];
+    std::snprintf(line, sizeof line, "umbra kept %.1f%% < %.1f%% (lost shadows)", 100.0 * kept,
+                  100.0 * b.umbra_kept);
+    out.push_back(line);
+  }
+  return out;
+}
 
 FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions& options) {
   const scene::Scene& scene = renderer.scene();
@@ -54,10 +99,7 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
       if (lm.classes[i] == ReceiverClass::none) reached.valid[i] = 0;
     lm.reference = options.cache_dir ? trace_cached(tracer, reached, lm.area, t, *options.cache_dir)
                                      : tracer.trace(reached, lm.area, t);
-    const uint32_t slot = l.kind == LightKind::sun    ? render::kSunVisibilitySlot
-                          : l.kind == LightKind::spot ? render::spot_visibility_slot(l.index)
-                                                      : render::point_visibility_slot(l.index);
-    lm.gpu = renderer.read_visibility(slot);
+    lm.gpu = renderer.read_visibility(visibility_slot(l));
     lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics,
                                  lm.n_dot_l);
     lm.metrics.light = l.name();
