@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/golden/golden.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/validation.hpp>
@@ -151,6 +152,7 @@ int run(int argc, char** argv) {
   std::printf("device: %s (%s %s), device class %s\n", ctx.info().name.c_str(),
               ctx.info().driver_name.c_str(), ctx.info().driver_info.c_str(), cls.c_str());
   int failed = 0;
+  std::string index;  // check: one line per case on the report's index.html
   if (o.stats)
     std::printf("stats,case,image,region,pixels,over_1/255,over_0.02,over_0.1,over_0.25,over_0.5,"
                 "worst\n");
@@ -175,6 +177,8 @@ int run(int argc, char** argv) {
       std::printf("%s: %s\n%s  report: %s\n", c.name.c_str(), cmp.passed() ? "passed" : "FAILED",
                   cmp.summary().c_str(), page.string().c_str());
       failed += !cmp.passed();
+      index += "<li><a href=\"" + c.name + "/index.html\">" + c.name + "</a>: " +
+               (cmp.passed() ? "passed" : "<b style=\"color:#b00\">FAILED</b>") + "</li>\n";
       if (o.stats)
         for (const auto& r : cmp.results)
           std::printf("stats,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu,%.4f\n", c.name.c_str(),
@@ -225,6 +229,14 @@ int run(int argc, char** argv) {
     g.frame = m.frame;
     golden::write_golden(dir, g);
     std::printf("%s: wrote %s\n", c.name.c_str(), dir.string().c_str());
+  }
+  if (o.command == "check" && !index.empty()) {
+    const fs::path page = o.report / "index.html";
+    penumbra::write_file_atomic(
+        page, "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>golden "
+              "check</title></head><body style=\"font:14px system-ui,sans-serif\"><h1>golden "
+              "check (" + cls + ")</h1><ul>\n" + index + "</ul></body></html>\n");
+    std::printf("report: %s\n", page.string().c_str());
   }
   if (ctx.validation_enabled() && ctx.validation_sink().total_seen() != 0) {
     std::fprintf(stderr, "validation: %zu messages\n", ctx.validation_sink().total_seen());

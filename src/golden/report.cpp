@@ -133,6 +133,35 @@ std::vector<uint8_t> region_image(const std::vector<Region>& regions,
   return out;
 }
 
+std::vector<uint8_t> visibility_difference_image(const std::vector<float>& expected,
+                                                 const std::vector<float>& actual,
+                                                 const std::vector<Region>& regions,
+                                                 const std::vector<uint8_t>& frame) {
+  const size_t n = actual.size();
+  std::vector<uint8_t> out(n * 4, 255);
+  for (size_t i = 0; i < n; ++i) {
+    const uint8_t g = uint8_t(i * 4 < frame.size() ? grey_of(frame, i) / 4 : 32);
+    const bool compared = i < regions.size() && regions[i] != Region::none && i < expected.size();
+    const float d = compared ? actual[i] - expected[i] : 0.0f;
+    if (!std::isfinite(d)) {  // NaN or inf in the new frame: magenta
+      out[i * 4] = 255;
+      out[i * 4 + 1] = 0;
+      out[i * 4 + 2] = 255;
+      continue;
+    }
+    if (std::abs(d) < 1.0f / 1024.0f) {
+      out[i * 4] = out[i * 4 + 1] = out[i * 4 + 2] = g;
+      continue;
+    }
+    const float t = std::clamp(0.25f + 3.0f * std::abs(d), 0.0f, 1.0f);
+    const float base = float(g) * (1.0f - t);
+    out[i * 4] = uint8_t(base + (d > 0 ? 255.0f * t : 40.0f * t));
+    out[i * 4 + 1] = uint8_t(base + 40.0f * t);
+    out[i * 4 + 2] = uint8_t(base + (d > 0 ? 40.0f * t : 255.0f * t));
+  }
+  return out;
+}
+
 std::vector<uint8_t> frame_difference_image(const Frame& e, const Frame& a) {
   const size_t n = size_t(a.width) * a.height;
   std::vector<uint8_t> out(n * 4, 0);
@@ -256,8 +285,8 @@ fs::path write_report(const fs::path& dir, const ReportInfo& info,
            info.after_label);
     if (el && el->visibility.size() == al.visibility.size())
       figure(png("difference-" + al.light + ".png", actual,
-                 reference::error_image(al.visibility, el->visibility, classes, actual.lit)),
-             "difference: darker than expected blue, lighter red");
+                 visibility_difference_image(el->visibility, al.visibility, regions, actual.lit)),
+             "difference: lighter than expected red, darker blue (full at 0.25)");
     if (!regions.empty())
       figure(png("regions-" + al.light + ".png", actual, region_image(regions, actual.lit)),
              "regions: umbra blue, penumbra orange, silhouette magenta, lit yellow");

@@ -167,6 +167,12 @@ Comparison compare(const Frame& golden, const Frame& actual, const Tolerances& t
 // pale yellow, none left grey.
 std::vector<uint8_t> region_image(const std::vector<Region>& regions,
                                   const std::vector<uint8_t>& frame_rgba);
+// actual − expected visibility where it is compared (regions other than none): lighter than
+// expected red, darker blue, full at |difference| >= 0.25; equal pixels show the frame dimmed.
+std::vector<uint8_t> visibility_difference_image(const std::vector<float>& expected,
+                                                 const std::vector<float>& actual,
+                                                 const std::vector<Region>& regions,
+                                                 const std::vector<uint8_t>& frame_rgba);
 // |actual − expected| of the frames as a heat map (black → red → yellow → white, 0 → 32/255+).
 std::vector<uint8_t> frame_difference_image(const Frame& expected, const Frame& actual);
 
