@@ -17,15 +17,18 @@ uint32_t visibility_slot(const LightRef& l) {
                                      : render::point_visibility_slot(l.index);
 }
 
-double umbra_kept(const LightMeasurement& l, size_t* umbra_count) {
-  size_t umbra = 0, kept = 0;
+double umbra_kept(const LightMeasurement& l, size_t* umbra_count, bool weighted) {
+  size_t umbra = 0;
+  double all = 0.0, kept = 0.0;
   for (size_t i = 0; i < l.classes.size(); ++i) {
     if (l.classes[i] != ReceiverClass::lit || !(l.reference.value[i] < 0.5f)) continue;
     ++umbra;
-    kept += l.gpu[i] < 0.5f;
+    const double w = weighted && i < l.n_dot_l.size() ? double(l.n_dot_l[i]) : 1.0;
+    all += w;
+    kept += l.gpu[i] < 0.5f ? w : 0.0;
   }
   if (umbra_count) *umbra_count = umbra;
-  return umbra == 0 ? 1.0 : double(kept) / double(umbra);
+  return all > 0.0 ? kept / all : 1.0;
 }
 
 std::vector<std::string> budget_violations(const LightMeasurement& l, const AccuracyBudget& b) {
@@ -128,16 +131,28 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
     png("error" + s + ".png", error_image(l.gpu, l.reference.value, l.classes, m.lit));
     std::string j = l.metrics.to_json();
     j.pop_back();  // add the tracer's numbers to the light's object
-    j += ", \"rays\": " + std::to_string(l.reference.rays) +
+    j += ", \"umbra_kept\": " + std::to_string(umbra_kept(l)) +
+         ", \"umbra_kept_lit\": " + std::to_string(umbra_kept(l, nullptr, true)) +
+         ", \"rays\": " + std::to_string(l.reference.rays) +
          ", \"trace_seconds\": " + std::to_string(l.reference.seconds) +
          ", \"from_cache\": " + (l.reference.from_cache ? "true" : "false") + "}";
     lights_json += (lights_json.empty() ? "\n    " : ",\n    ") + j;
+  }
+  // Geometry pixels the frame shows black (every channel <= 1/255): no light, not even the
+  // ambient, reaches them: what a NaN in the lighting or a broken pass leaves.
+  uint64_t geometry = 0, black = 0;
+  for (size_t i = 0; i < m.receivers.valid.size() && i * 4 + 2 < m.lit.size(); ++i) {
+    if (!m.receivers.valid[i]) continue;
+    ++geometry;
+    black += m.lit[i * 4] <= 1 && m.lit[i * 4 + 1] <= 1 && m.lit[i * 4 + 2] <= 1;
   }
   const fs::path json = dir / "metrics.json";
   std::ostringstream out;
   out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
       << "\"width\": " << m.width << ", \"height\": " << m.height
-      << ", \"triangles\": " << m.triangles << ",\n  \"lights\": [" << lights_json
+      << ", \"triangles\": " << m.triangles << ", \"geometry_pixels\": " << geometry
+      << ", \"black_pixels\": " << black << ", \"rejected_pixels\": " << m.receivers.rejected
+      << ",\n  \"lights\": [" << lights_json
       << "\n  ]\n}\n";
   write_file_atomic(json, out.str());
   written.push_back(json);

@@ -76,9 +76,11 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
   std::vector<double> abs_errors;
   double sum_abs = 0.0, sum_sq = 0.0, sum_se = 0.0, sum_abs_away = 0.0;
   uint64_t false_light = 0, false_shadow = 0, wrong = 0, shadowed = 0, partial = 0;
+  double false_light_w = 0.0, false_shadow_w = 0.0;
   const double t = options.threshold;
   for (size_t i = 0; i < classes.size(); ++i) {
     const double r = reference.value[i], g = v[i];
+    if (classes[i] == ReceiverClass::lit && std::isfinite(r) && !std::isfinite(g)) ++m.non_finite;
     if (!std::isfinite(r) || !std::isfinite(g)) continue;
     if (classes[i] == ReceiverClass::facing_away) {
       ++m.facing_away;
@@ -97,6 +99,10 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
     abs_errors.push_back(std::abs(e));
     if (g > r + t) ++false_light;
     if (g < r - t) ++false_shadow;
+    if (!n_dot_l.empty()) {
+      if (g > r + t) false_light_w += n_dot_l[i];
+      if (g < r - t) false_shadow_w += n_dot_l[i];
+    }
     if ((g >= 0.5) != (r >= 0.5)) ++wrong;
     if (r < 0.5) ++shadowed;
     if (r > 0.0 && r < 1.0) {
@@ -115,6 +121,8 @@ Metrics compute_metrics(std::span<const float> v, const Visibility& reference,
     m.p99_abs = abs_errors[k];
     m.false_light = double(false_light) / n;
     m.false_shadow = double(false_shadow) / n;
+    m.false_light_lit = sum_weights > 0.0 ? false_light_w / sum_weights : 0.0;
+    m.false_shadow_lit = sum_weights > 0.0 ? false_shadow_w / sum_weights : 0.0;
     m.misclassified = hard ? double(wrong) / n : std::numeric_limits<double>::quiet_NaN();
     m.reference_partial_fraction = double(partial) / n;
     m.reference_std_error = partial ? sum_se / double(partial) : 0.0;
@@ -130,10 +138,13 @@ std::string Metrics::to_json() const {
   std::ostringstream s;
   s << "{\"light\": \"" << light << "\", \"hard\": " << (hard ? "true" : "false")
     << ", \"receivers\": " << receivers << ", \"facing_away\": " << facing_away
+    << ", \"non_finite\": " << non_finite
     << ", \"mean_abs\": " << number(mean_abs) << ", \"mean_abs_lit\": " << number(mean_abs_lit)
     << ", \"rmse\": " << number(rmse)
     << ", \"p99_abs\": " << number(p99_abs) << ", \"false_light\": " << number(false_light)
     << ", \"false_shadow\": " << number(false_shadow)
+    << ", \"false_light_lit\": " << number(false_light_lit)
+    << ", \"false_shadow_lit\": " << number(false_shadow_lit)
     << ", \"misclassified\": " << number(misclassified)
     << ", \"mean_abs_facing_away\": " << number(mean_abs_facing_away)
     << ", \"reference_partial_fraction\": " << number(reference_partial_fraction)

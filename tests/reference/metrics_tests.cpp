@@ -38,6 +38,18 @@ TEST(ReferenceMetrics, FalseLightAndFalseShadowAreKeptApart) {
   EXPECT_NEAR(m.shadowed_fraction, 2.0 / 5.0, 1e-12);  // receivers 0 and 3
 }
 
+TEST(ReferenceMetrics, NonFiniteGpuValuesAreCountedNotMeasured) {
+  // A NaN or inf visibility where the light reaches (a broken shader, a 0/0 in a filter) is
+  // counted apart; on the sky or facing away it is not a receiver of this light.
+  const auto r = ref({0.0f, 1.0f, 1.0f, 1.0f, 1.0f});
+  const std::vector<float> v{0.0f, NAN, INFINITY, 1.0f, NAN};
+  const std::vector<C> c{C::lit, C::lit, C::lit, C::lit, C::none};
+  const Metrics m = compute_metrics(v, r, c, true);
+  EXPECT_EQ(m.non_finite, 2u);
+  EXPECT_EQ(m.receivers, 2u);
+  EXPECT_NE(m.to_json().find("\"non_finite\": 2"), std::string::npos);
+}
+
 TEST(ReferenceMetrics, HardLightsCountMisclassifiedPixels) {
   const auto r = ref({0.0f, 1.0f, 1.0f, 0.0f});
   const std::vector<float> v{0.0f, 0.4f, 1.0f, 0.7f};

@@ -47,8 +47,10 @@ struct AccuracyBudget {
 };
 
 // Of the receivers the reference finds in umbra (R < 0.5), the fraction the GPU shadows
-// (V < 0.5); 1 when there is no umbra. umbra_count: how many there are (optional).
-double umbra_kept(const LightMeasurement& light, size_t* umbra_count = nullptr);
+// (V < 0.5); 1 when there is no umbra. umbra_count: how many there are (optional). With
+// weighted, each receiver counts by its n·l (the light a lost shadow lets through).
+double umbra_kept(const LightMeasurement& light, size_t* umbra_count = nullptr,
+                  bool weighted = false);
 
 // What of the light's measurement exceeds the budget, one line per bound ("false light 1.30% >
 // 1.00%"); empty when it is within.

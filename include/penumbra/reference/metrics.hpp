@@ -37,6 +37,7 @@ struct Metrics {
   bool hard = false;
   uint64_t receivers = 0;    // ReceiverClass::lit pixels with a finite V and R
   uint64_t facing_away = 0;  // ReceiverClass::facing_away pixels
+  uint64_t non_finite = 0;   // ReceiverClass::lit pixels whose GPU visibility is NaN or inf
   double mean_abs = 0.0;     // mean |V − R|
   // mean |V − R| weighted by n·l: the error as the light's diffuse term shows it (errors where
   // the light grazes the surface count little); 0 without weights.
@@ -45,6 +46,10 @@ struct Metrics {
   double p99_abs = 0.0;        // 99th percentile of |V − R|
   double false_light = 0.0;    // fraction with V > R + t
   double false_shadow = 0.0;   // fraction with V < R − t
+  // The same weighted by n·l: the share of the light's diffuse term that errs. Surfaces the
+  // light grazes (a vertical wall under a sun exactly overhead, n·l ~ 1e-7) count little; 0
+  // without weights.
+  double false_light_lit = 0.0, false_shadow_lit = 0.0;
   double misclassified = 0.0;  // hard lights: (V >= 0.5) != (R >= 0.5); NaN for area lights
   double mean_abs_facing_away = 0.0;
   // The reference's own noise: the share of receivers it found partly visible (0 < R < 1, the
