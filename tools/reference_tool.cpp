@@ -239,9 +239,12 @@ int run(int argc, char** argv) {
       for (size_t i = 0; i < results.size(); ++i) {
         const auto& f = results[i];
         header << (i ? ", " : "") << json_string(f.light) << ": {\"fraction\": " << f.fraction()
+               << ", \"fraction_lit\": " << f.fraction_lit()
                << ", \"edge_pixels\": " << f.edge_pixels << ", \"changed\": " << f.changed << "}";
-        std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels over %u frames\n",
+        std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
+                    "frames\n",
                     f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
+                    100.0 * f.fraction_lit(),
                     o.flicker_options.frames);
         fs::create_directories(o.out);
         penumbra::render::write_png(

@@ -81,7 +81,8 @@ CameraPath find_path(const std::string& name) {
 }
 
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
-                   size_t& edge_pixels, size_t& changed, std::vector<uint32_t>* per_pixel) {
+                   size_t& edge_pixels, size_t& changed, std::vector<uint32_t>* per_pixel,
+                   double* edge_weight, double* changed_weight) {
   const Receivers& pr = previous.receivers;
   const Receivers& cr = current.receivers;
   const uint32_t w = cr.width, h = cr.height;
@@ -139,8 +140,11 @@ void count_flicker(const FrameSample& previous, const FrameSample& current, floa
       }
       if (!same_surface || prev_hi < prev_lo) continue;
       ++edge_pixels;
+      const double weight = current.weight.size() == cr.size() ? double(current.weight[i]) : 1.0;
+      if (edge_weight) *edge_weight += weight;
       if (double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold)) {
         ++changed;
+        if (changed_weight) *changed_weight += weight;
         if (per_pixel && per_pixel->size() == cr.size()) ++(*per_pixel)[i];
       }
     }
@@ -203,13 +207,16 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
         f.receivers = receivers;
         f.camera = g.camera;
         f.visibility = renderer.read_visibility(visibility_slot(lights[li]));
-        const auto classes = classify_receivers(receivers, s, lights[li]);
+        const auto classes = classify_receivers(receivers, s, lights[li], &f.weight);
         f.reached.resize(classes.size());
-        for (size_t i = 0; i < classes.size(); ++i)
+        for (size_t i = 0; i < classes.size(); ++i) {
           f.reached[i] = classes[i] != ReceiverClass::none;
+          if (classes[i] != ReceiverClass::lit) f.weight[i] = 0.0f;
+        }
         if (k > 0)
           count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed,
-                        &out[li].changed_per_pixel);
+                        &out[li].changed_per_pixel, &out[li].edge_weight,
+                        &out[li].changed_weight);
       }
       std::swap(previous, current);
     }

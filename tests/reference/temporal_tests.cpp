@@ -117,6 +117,31 @@ TEST(Flicker, NoiseOnAStillCameraIsCounted) {
   EXPECT_GE(c.changed, n * 9 / 10) << "of " << n << " pixels changed by 0.1";
 }
 
+// Weighted by n·l, flicker where the light grazes the surface counts for what the frame shows:
+// the same changes at weight 0 (a wall edge-on to the sun) are no visible flicker.
+TEST(Flicker, WeightedByNDotLChangesWhereTheLightGrazesCountLittle) {
+  const FrameSample a = frame(kEye, kTarget, soft_edge);
+  FrameSample b = a;
+  for (size_t i = 0; i < b.visibility.size(); ++i)
+    if (b.reached[i] && b.visibility[i] > 0.02f && b.visibility[i] < 0.98f)
+      b.visibility[i] = std::clamp(b.visibility[i] + 0.1f, 0.0f, 1.0f);
+  size_t edge = 0, changed = 0;
+  double edge_w = 0.0, changed_w = 0.0;
+  count_flicker(a, b, 8.0f / 255.0f, edge, changed, nullptr, &edge_w, &changed_w);
+  ASSERT_GT(changed, 50u);
+  EXPECT_DOUBLE_EQ(edge_w, double(edge));  // no weights: every pixel counts 1
+  EXPECT_DOUBLE_EQ(changed_w, double(changed));
+  b.weight.assign(b.visibility.size(), 1.0f);
+  for (size_t i = 0; i < b.visibility.size(); ++i)
+    if (b.visibility[i] > 0.1f && b.visibility[i] < 0.98f) b.weight[i] = 0.0f;  // the changed ones
+  edge = changed = 0;
+  edge_w = changed_w = 0.0;
+  count_flicker(a, b, 8.0f / 255.0f, edge, changed, nullptr, &edge_w, &changed_w);
+  EXPECT_GT(changed, 50u);
+  EXPECT_GT(edge_w, 0.0);
+  EXPECT_LT(changed_w, 0.05 * edge_w) << changed << " of " << edge << " changed";
+}
+
 // Pixels that were not on the same surface in the previous frame (disocclusion) or that the
 // light does not reach are not counted.
 TEST(Flicker, OnlyReprojectablePixelsTheLightReachesCount) {

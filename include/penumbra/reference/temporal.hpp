@@ -53,7 +53,12 @@ struct Flicker {
   size_t changed = 0;      // of those, changed by more than the threshold
   uint32_t width = 0, height = 0;
   std::vector<uint32_t> changed_per_pixel;  // how many of the frame pairs flickered there
+  // The same counts weighted by each pixel's n·l to the light (facing away: 0): flicker as the
+  // lit frame shows it. A wall the sun grazes (n·l ~ 1e-7 under a sun straight overhead) may
+  // flip its visibility every frame without a visible change.
+  double edge_weight = 0.0, changed_weight = 0.0;
   double fraction() const { return edge_pixels ? double(changed) / double(edge_pixels) : 0.0; }
+  double fraction_lit() const { return edge_weight > 0.0 ? changed_weight / edge_weight : 0.0; }
 };
 
 // Renders options.frames frames along `path` (frame k: the scene's camera or sun moved k
@@ -69,11 +74,14 @@ struct FrameSample {
   render::FrameCamera camera;   // the matrices the GPU used
   std::vector<float> visibility;  // the light's, per pixel
   std::vector<uint8_t> reached;   // 1 where the light reaches the receiver
+  std::vector<float> weight;      // n·l to the light per pixel (0 facing away); empty: all 1
 };
 // per_pixel (width x height of `current`), when given, counts the flickering pixels.
+// edge_weight and changed_weight, when given, add up current.weight over the same pixels.
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
                    size_t& edge_pixels, size_t& changed,
-                   std::vector<uint32_t>* per_pixel = nullptr);
+                   std::vector<uint32_t>* per_pixel = nullptr, double* edge_weight = nullptr,
+                   double* changed_weight = nullptr);
 
 // A picture of where a path flickered: the frame in grey, each pixel red in proportion to the
 // pairs of frames in which it flickered (RGBA8, `lit` is the measured frame).
