@@ -59,7 +59,8 @@ if os.path.isfile(csv_path):
     with open(csv_path) as f:
         rows = list(csv.DictReader(f))
     quick = x.quick_cells(cells)
-    check(len(rows) == len(quick), f"{len(rows)} rows, expected {len(quick)}")
+    check(len(rows) == len(quick) + 1, f"{len(rows)} rows, expected {len(quick)} and the baseline")
+    check(rows and rows[0]["cell"] == "-1", "the baseline row comes first")
     check({float(rw["elevation"]) for rw in rows} >= {90.0, -90.0}, "quick misses a degenerate sun")
     for rw in rows:
         check(rw["errors"] == "", f"cell {rw['cell']}: {rw['errors']}")
