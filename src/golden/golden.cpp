@@ -76,11 +76,12 @@ std::vector<Case> load_cases(const fs::path& file) {
     const toml::table& t = table_at(file, n, "[[case]]");
     Case c;
     for (const auto& [key, value] : t) {
-      static const char* known[] = {"name", "scene", "set", "size", "description", "budget"};
+      static const char* known[] = {"name",        "scene",  "set",   "size",
+                                    "description", "budget", "origin"};
       if (std::none_of(std::begin(known), std::end(known),
                        [&](const char* k) { return key.str() == k; }))
         throw Error(where(file, value) + ": unknown key '" + std::string(key.str()) +
-                    "' in [[case]] (known: name, scene, set, size, description, budget)");
+                    "' in [[case]] (known: name, scene, set, size, description, budget, origin)");
     }
     c.name = string_key(file, t, "name", true);
     if (c.name.empty() || c.name.find_first_not_of("abcdefghijklmnopqrstuvwxyz0123456789-_.") !=
@@ -109,6 +110,12 @@ std::vector<Case> load_cases(const fs::path& file) {
       if (!a || a->size() != 2) throw Error(where(file, *s) + ": 'size' must be [width, height]");
       c.width = uint32_t(number_key(file, *a->get(0), "size", 16, 4096));
       c.height = uint32_t(number_key(file, *a->get(1), "size", 16, 4096));
+    }
+    if (const toml::node* s = t.get("origin")) {
+      const toml::array* a = s->as_array();
+      if (!a || a->size() != 3) throw Error(where(file, *s) + ": 'origin' must be [x, y, z]");
+      for (int k = 0; k < 3; ++k)
+        c.origin[k] = number_key(file, *a->get(size_t(k)), "origin", -1e7, 1e7);
     }
     if (const toml::node* b = t.get("budget")) {
       const toml::table& bt = table_at(file, *b, "'budget'");
@@ -168,6 +175,7 @@ scene::Scene case_scene(const Case& c) {
     scene_file = fs::path(PENUMBRA_SOURCE_DIR) / scene_file;
   scene::Scene s = scene::load_scene(scene::find_scene(scene_file.string()));
   scene::set_params(s, c.sets);
+  if (c.origin != glm::dvec3(0.0)) scene::translate_scene(s, c.origin);
   return s;
 }
 

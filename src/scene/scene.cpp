@@ -57,6 +57,18 @@ bool alpha_test_discards(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale, flo
   return procedural_mask(uv, pattern, scale) < cutoff;
 }
 
+void translate_scene(Scene& scene, const glm::dvec3& offset) {
+  auto moved = [&](const glm::vec3& v) { return glm::vec3(glm::dvec3(v) + offset); };
+  scene.camera.position = moved(scene.camera.position);
+  scene.camera.target = moved(scene.camera.target);
+  for (auto& s : scene.spots) s.position = moved(s.position);
+  for (auto& p : scene.points) p.position = moved(p.position);
+  for (auto& i : scene.instances) {
+    const glm::vec3 t = moved(glm::vec3(i.transform[3]));
+    i.transform[3] = glm::vec4(t, i.transform[3].w);
+  }
+}
+
 Bounds Scene::world_bounds() const {
   return instance_bounds(*this, false);
 }

@@ -191,5 +191,37 @@ TEST(ShippedScenes, IndoorHasASpotAndAPointInAClosedRoom) {
   EXPECT_EQ(tables, 1u);
 }
 
+// translate_scene moves everything with a position, each value rounded to float once, and
+// nothing else (orientation, scale, the sun).
+TEST(ShippedScenes, TranslateSceneMovesEveryPositionOnce) {
+  const Scene original = load_scene(find_scene("indoor"));
+  Scene moved = original;
+  const glm::dvec3 offset(1e5, 0.25, -1e5);
+  translate_scene(moved, offset);
+  auto expect_moved = [&](const glm::vec3& a, const glm::vec3& b) {
+    EXPECT_EQ(b, glm::vec3(glm::dvec3(a) + offset));
+  };
+  expect_moved(original.camera.position, moved.camera.position);
+  expect_moved(original.camera.target, moved.camera.target);
+  ASSERT_FALSE(original.spots.empty());
+  ASSERT_FALSE(original.points.empty());
+  for (size_t i = 0; i < original.spots.size(); ++i) {
+    expect_moved(original.spots[i].position, moved.spots[i].position);
+    EXPECT_EQ(original.spots[i].direction, moved.spots[i].direction);
+  }
+  for (size_t i = 0; i < original.points.size(); ++i)
+    expect_moved(original.points[i].position, moved.points[i].position);
+  ASSERT_EQ(original.instances.size(), moved.instances.size());
+  for (size_t i = 0; i < original.instances.size(); ++i) {
+    expect_moved(glm::vec3(original.instances[i].transform[3]),
+                 glm::vec3(moved.instances[i].transform[3]));
+    for (int c = 0; c < 3; ++c)
+      EXPECT_EQ(original.instances[i].transform[c], moved.instances[i].transform[c]);
+  }
+  // The bounds move with it (to float precision at 1e5: 8 mm).
+  const Bounds a = original.world_bounds(), b = moved.world_bounds();
+  for (int k = 0; k < 3; ++k) EXPECT_NEAR(double(b.min[k]) - double(a.min[k]), offset[k], 0.02);
+}
+
 }  // namespace
 }  // namespace penumbra::scene

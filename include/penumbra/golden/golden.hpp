@@ -56,6 +56,7 @@ struct Case {
   std::string name;
   std::string scene;  // a shipped scene's name or a .toml path relative to the source tree
   std::vector<std::pair<std::string, std::string>> sets;  // parameter-table overrides
+  glm::dvec3 origin{0.0};  // the whole scene moved by this (scene::translate_scene)
   uint32_t width = 480, height = 270;
   std::string description;
   reference::AccuracyBudget budget;  // the issue-13 budget unless the case says why not

@@ -193,6 +193,12 @@ struct Scene {
   Requirements requirements() const;
 };
 
+// Moves the whole scene by `offset` metres: the camera's position and target, every instance,
+// spot and point light (the sun has no position). Each value is moved in double and rounded to
+// float once, as a scene file that wrote the moved positions would give them; the far-from-origin
+// checks (tests/golden's `origin`, the extremes matrix) use it.
+void translate_scene(Scene& scene, const glm::dvec3& offset);
+
 // Reads and validates a scene file. Throws penumbra::Error with "<file>:<line>: <what>" naming
 // the key and value (unknown keys come with a "did you mean" suggestion).
 Scene load_scene(const std::filesystem::path& file);
