@@ -51,16 +51,16 @@ check(any(x.sun_direction(c["elevation"]) == [0.0, -1.0, 0.0] for c in cells), "
 check(any(x.sun_direction(c["elevation"]) == [0.0, 1.0, 0.0] for c in cells), "no sun underneath")
 
 out = os.path.join(work, "quick")
-r = subprocess.run([sys.executable, tool, "--quick", "--out", out, "--build", build],
-                   capture_output=True, text=True)
+# Without the baseline row (the shipped scene, measured in full runs for comparison): CI's time.
+r = subprocess.run([sys.executable, tool, "--quick", "--no-baseline", "--out", out, "--build",
+                    build], capture_output=True, text=True)
 check(r.returncode == 0, f"--quick exited {r.returncode}:\n{r.stdout}{r.stderr}")
 csv_path = os.path.join(out, "extremes.csv")
 if os.path.isfile(csv_path):
     with open(csv_path) as f:
         rows = list(csv.DictReader(f))
     quick = x.quick_cells(cells)
-    check(len(rows) == len(quick) + 1, f"{len(rows)} rows, expected {len(quick)} and the baseline")
-    check(rows and rows[0]["cell"] == "-1", "the baseline row comes first")
+    check(len(rows) == len(quick), f"{len(rows)} rows, expected {len(quick)}")
     check({float(rw["elevation"]) for rw in rows} >= {90.0, -90.0}, "quick misses a degenerate sun")
     for rw in rows:
         check(rw["errors"] == "", f"cell {rw['cell']}: {rw['errors']}")
