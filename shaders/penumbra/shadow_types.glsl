@@ -33,6 +33,7 @@ struct ShadowGpu {
   vec4 camera_position;  // xyz relative to the render origin
   vec4 camera_forward;   // xyz unit
   uvec4 counts;    // x count, y depth convention, z resolution, w layout
+  uvec4 modes;     // x cascade selection (0 view distance, 1 containment)
 };
 
 struct SpotShadowGpu {

@@ -81,6 +81,24 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
                            int(frame.filter_params.y), rotation, reverse_z);
 }
 
+// Texels the configured filter reaches beyond the receiver's own: what a cascade chosen by
+// containment must hold around it (PCSS: its blocker search, the widest of its reads).
+float filter_reach_texels() {
+  uint filter_mode = frame.mode.z;
+  if (filter_mode == kFilterPcf) return frame.filter_params.x + 1.0;
+  if (filter_mode == kFilterPoisson) return ceil(frame.filter_params.w) + 1.0;
+  if (filter_mode == kFilterPcss) return ceil(shadow.pcss.y) + 1.0;
+  return 1.0;  // hard: one bilinear compare tap
+}
+
+// The finest cascade whose map holds the receiver with the filter's reach; count when none.
+int select_cascade_containing(vec3 p, int count) {
+  mat4 view_proj[8];
+  for (int i = 0; i < 8; ++i) view_proj[i] = shadow.cascades[min(i, max(count - 1, 0))].view_proj;
+  return select_cascade_by_position(p, view_proj, count, filter_reach_texels(),
+                                    float(shadow.counts.z));
+}
+
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   ivec2 size = ivec2(frame.viewport.xy);
@@ -100,7 +118,9 @@ void main() {
   vec3 to_light = shadow.light_dir_angular.xyz;
   float view_depth = dot(p - shadow.camera_position.xyz, shadow.camera_forward.xyz);
   int count = int(shadow.counts.x);
-  int c = select_cascade_by_depth(view_depth, shadow.splits, count);
+  bool by_containment = shadow.modes.x == 1u;
+  int c = by_containment ? select_cascade_containing(p, count)
+                         : select_cascade_by_depth(view_depth, shadow.splits, count);
   float visibility = 1.0;
   float penumbra = 0.0;
   float texel_world = 0.0;
@@ -111,8 +131,10 @@ void main() {
   } else if (c < count) {
     visibility = cascade_visibility(c, p, n, to_light, vec2(pixel), penumbra);
     texel_world = shadow.cascades[c].params.x;
-    float blend = cascade_blend_to_next(view_depth, shadow.splits, c, count, shadow.selection.x,
-                                        shadow.selection.y);
+    // Blending follows the view-distance slices; a cascade chosen by containment is used alone.
+    float blend = by_containment ? 0.0
+                                 : cascade_blend_to_next(view_depth, shadow.splits, c, count,
+                                                         shadow.selection.x, shadow.selection.y);
     if (blend > 0.0) {
       float next_penumbra;
       float next = cascade_visibility(c + 1, p, n, to_light, vec2(pixel), next_penumbra);

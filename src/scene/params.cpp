@@ -114,6 +114,7 @@ std::vector<Param> make_params() {
   using T = ParamType;
   const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson"};
   const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
+  const std::vector<std::string_view> selections{"depth", "containment"};
   const std::vector<std::string_view> views{"lit",          "shadow_factor", "cascades",
                                             "contact_mask", "texel_density", "penumbra"};
   const std::vector<Row> rows = {
@@ -222,6 +223,11 @@ std::vector<Param> make_params() {
        field<&S::shadows, &ShadowSettings::resolution>(), A::rebuild, "texels per cascade side"},
       {"shadows.fit", T::choice, kAny, field<&S::shadows, &ShadowSettings::fit>(), A::frame,
        "how a cascade is fit to its slice (docs/cascades.md)", fits},
+      {"shadows.selection", T::choice, kAny, field<&S::shadows, &ShadowSettings::selection>(),
+       A::frame,
+       "how a receiver's cascade is chosen: by view distance, or the finest cascade whose map "
+       "holds it with the filter's reach (docs/cascades.md)",
+       selections},
       {"shadows.snap_to_texels", T::boolean, kAny,
        field<&S::shadows, &ShadowSettings::snap_to_texels>(), A::frame,
        "cascades move by whole texels, so static edges do not shimmer; off only to compare"},

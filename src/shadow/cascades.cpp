@@ -150,6 +150,7 @@ CascadeSet compute_cascades(const ShadowConfig& config, const Camera& camera,
   set.blend_fraction = config.blend_fraction;
   set.fade_fraction = config.fade_fraction;
   set.pcss = config.pcss;
+  set.selection = config.selection;
   set.camera_position = camera.position;
 
   const CameraFrame frame = camera_frame(camera);

@@ -54,6 +54,7 @@ ShadowGpu pack_shadow(const CascadeSet& set, const glm::dvec3& render_origin) {
   gpu.camera_forward = to_vec4(set.camera_forward, 0.0);
   gpu.counts = glm::uvec4(static_cast<std::uint32_t>(count), static_cast<std::uint32_t>(set.depth),
                           set.resolution, static_cast<std::uint32_t>(set.layout));
+  gpu.modes = glm::uvec4(static_cast<std::uint32_t>(set.selection), 0u, 0u, 0u);
   return gpu;
 }
 

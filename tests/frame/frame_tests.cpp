@@ -103,6 +103,37 @@ TEST_F(FrameTest, DefaultSceneShadowedFractionInRange) {
   EXPECT_LT(self_fraction, 0.05);
 }
 
+// shadows.selection = "containment": each receiver takes the finest cascade whose map holds it.
+// The cascade view distance selects was fit to hold that receiver, so containment never picks a
+// coarser one, and on the default scene it picks a finer one for part of the frame (cascade 0's
+// square map reaches past its slice). Mutation: selecting by depth in both renders fails the
+// second expectation.
+TEST_F(FrameTest, CascadeSelectionByContainmentPicksTheFinestCascadeThatHoldsTheReceiver) {
+  auto cascades = [&](scene::CascadeSelection selection) {
+    scene::Scene s = small("default");
+    s.shadows.selection = selection;
+    render::Renderer r(ctx(), s);
+    r.render(0);
+    const auto info = r.read_shadow_info();
+    std::vector<float> c(info.size() / 4);
+    for (size_t i = 0; i < c.size(); ++i) c[i] = info[i * 4 + 1];
+    return c;
+  };
+  const auto by_depth = cascades(scene::CascadeSelection::depth);
+  const auto by_containment = cascades(scene::CascadeSelection::containment);
+  size_t geometry = 0, finer = 0, coarser = 0;
+  for (size_t i = 0; i < by_depth.size(); ++i) {
+    if (by_depth[i] < 0.0f) continue;  // sky or beyond the shadow distance
+    ++geometry;
+    ASSERT_GE(by_containment[i], 0.0f) << "pixel " << i << ": no cascade holds it";
+    finer += by_containment[i] < by_depth[i];
+    coarser += by_containment[i] > by_depth[i];
+  }
+  ASSERT_GT(geometry, 1000u);
+  EXPECT_EQ(coarser, 0u) << "of " << geometry;
+  EXPECT_GT(finer, geometry / 20) << "of " << geometry;
+}
+
 TEST_F(FrameTest, SunShadowMapsHoldTheCasters) {
   render::Renderer r(ctx(), small("default"));
   r.render(0);

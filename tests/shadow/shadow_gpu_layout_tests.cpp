@@ -71,6 +71,7 @@ std::map<std::string, Expected> expected_layout() {
   e["shadow.camera_position"] = {offsetof(ShadowGpu, camera_position), kVec4, 0, 0};
   e["shadow.camera_forward"] = {offsetof(ShadowGpu, camera_forward), kVec4, 0, 0};
   e["shadow.counts"] = {offsetof(ShadowGpu, counts), sizeof(glm::uvec4), 0, 0};
+  e["shadow.modes"] = {offsetof(ShadowGpu, modes), sizeof(glm::uvec4), 0, 0};
 
   e["spot.view_proj"] = {offsetof(SpotShadowGpu, view_proj), kMat4, 0, kVec4};
   e["spot.position_near"] = {offsetof(SpotShadowGpu, position_near), kVec4, 0, 0};

@@ -96,6 +96,7 @@ struct PointLight {
 
 // One enum for the concept: the cascade math's (docs/cascades.md).
 using CascadeFit = shadow::CascadeFit;
+using CascadeSelection = shadow::CascadeSelection;
 
 // The cascade layout's defaults are the shadow library's (shadow::ShadowConfig), defined there
 // once; the scene adds the filter and the biases. Ranges, meanings and keys: params.hpp.
@@ -108,6 +109,7 @@ struct ShadowSettings {
   float max_distance = float(kCascadeDefaults.max_distance);  // view distance, > 0
   std::uint32_t resolution = kCascadeDefaults.resolution;
   CascadeFit fit = kCascadeDefaults.fit;
+  CascadeSelection selection = kCascadeDefaults.selection;
   bool snap_to_texels = kCascadeDefaults.snap_to_texels;  // cascades move by whole texels
   int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 5]
   // PCF and Poisson keep their world width across cascades (a disk sized in cascade 0's texels).

@@ -38,6 +38,12 @@ struct PcssOptions {
 
 // Directional-light cascade options, Filament ShadowOptions style: every field has a default
 // that works for a human-scale outdoor scene.
+// How the resolve picks a cascade for a receiver.
+enum class CascadeSelection : std::uint32_t {
+  depth = 0,        // by view distance against the splits (the slice the cascade was fit to)
+  containment = 1,  // the finest cascade whose map holds the receiver (with the filter's reach)
+};
+
 struct ShadowConfig {
   // Number of cascades, in [1, kMaxCascades].
   std::uint32_t cascade_count = 4;
@@ -66,6 +72,7 @@ struct ShadowConfig {
   // Shadows fade out over the last fade_fraction of max_distance; in [0, 1].
   double fade_fraction = 0.1;
   PcssOptions pcss;
+  CascadeSelection selection = CascadeSelection::depth;
 };
 
 // Clipmap levels: concentric squares centred on the camera, level i twice as wide as level i-1,
@@ -122,6 +129,7 @@ struct CascadeSet {
   double blend_fraction = 0.0;
   double fade_fraction = 0.0;
   PcssOptions pcss;
+  CascadeSelection selection = CascadeSelection::depth;  // cascades only (clipmaps: by position)
   glm::dvec3 camera_position{0.0};
   glm::dvec3 camera_forward{0.0, 0.0, -1.0};  // unit
 };

@@ -52,6 +52,9 @@ struct alignas(16) ShadowGpu {
   // x: cascade/level count; y: DepthConvention (0 standard, 1 reverse-Z); z: resolution;
   // w: ShadowLayout (0 cascades by view distance, 1 clipmap by position).
   glm::uvec4 counts;
+  // x: CascadeSelection (0 by view distance, 1 the finest cascade that holds the receiver);
+  // y, z, w: 0.
+  glm::uvec4 modes;
 };
 
 struct alignas(16) SpotShadowGpu {
@@ -90,7 +93,8 @@ static_assert(offsetof(ShadowGpu, selection) == 704);
 static_assert(offsetof(ShadowGpu, camera_position) == 720);
 static_assert(offsetof(ShadowGpu, camera_forward) == 736);
 static_assert(offsetof(ShadowGpu, counts) == 752);
-static_assert(sizeof(ShadowGpu) == 768);
+static_assert(offsetof(ShadowGpu, modes) == 768);
+static_assert(sizeof(ShadowGpu) == 784);
 
 static_assert(offsetof(SpotShadowGpu, view_proj) == 0);
 static_assert(offsetof(SpotShadowGpu, position_near) == 64);

@@ -102,6 +102,7 @@ void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const 
   cfg.max_distance = sh.max_distance;
   cfg.resolution = sh.resolution;
   cfg.fit = sh.fit;
+  cfg.selection = sh.selection;
   cfg.depth = depth_of(sh.reverse_z);
   cfg.depth_clamp = caps.depth_clamp;
   cfg.snap_to_texels = sh.snap_to_texels;
