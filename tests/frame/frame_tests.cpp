@@ -109,10 +109,9 @@ TEST_F(FrameTest, DefaultSceneShadowedFractionInRange) {
 // square map reaches past its slice). Mutation: selecting by depth in both renders fails the
 // second expectation.
 TEST_F(FrameTest, CascadeSelectionByContainmentPicksTheFinestCascadeThatHoldsTheReceiver) {
+  render::Renderer r(ctx(), small("default"));  // the selection is a per-frame parameter
   auto cascades = [&](scene::CascadeSelection selection) {
-    scene::Scene s = small("default");
-    s.shadows.selection = selection;
-    render::Renderer r(ctx(), s);
+    r.scene().shadows.selection = selection;
     r.render(0);
     const auto info = r.read_shadow_info();
     std::vector<float> c(info.size() / 4);
