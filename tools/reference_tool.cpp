@@ -45,6 +45,7 @@ void usage(FILE* f) {
       "                          [--terminator smooth|geometric]\n"
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
+      "                          [--flicker-truth]\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
       "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
@@ -66,6 +67,9 @@ void usage(FILE* f) {
       "               shadow-edge pixels whose visibility changes by more than 8/255 between\n"
       "               frames, after reprojection; into metrics.json's \"flicker\"\n"
       "  --flicker-frames  frames per path (default 16)\n"
+      "  --flicker-truth   also trace the reference at every frame of the paths and measure\n"
+      "               its flicker: what the truth itself shows (detail finer than a pixel, a\n"
+      "               turning sun), and the renderer's flicker where the truth held still\n"
       "  --cache      the reference cache (default $PENUMBRA_REFERENCE_CACHE or\n"
       "               ~/.cache/penumbra/reference); --no-cache traces every time\n");
 }
@@ -83,6 +87,7 @@ uint64_t number(const std::string& flag, const std::string& v, uint64_t lo, uint
 Options parse(int argc, char** argv) {
   Options o;
   auto& t = o.measure.trace;
+  bool flicker_truth = false;
   for (int i = 1; i < argc; ++i) {
     const std::string a = argv[i];
     auto value = [&]() -> std::string {
@@ -148,12 +153,16 @@ Options parse(int argc, char** argv) {
       }
     } else if (a == "--flicker-frames")
       o.flicker_options.frames = uint32_t(number(a, value(), 2, 10000));
+    else if (a == "--flicker-truth")
+      flicker_truth = true;
     else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
     } else
       throw Error("unknown argument '" + a + "' (try --help)");
   }
+  // The truth along the paths takes the measure's trace options (samples, seed, threads).
+  if (flicker_truth) o.flicker_options.truth = t;
   return o;
 }
 
@@ -177,6 +186,7 @@ int run(int argc, char** argv) {
     o.measure.cache_dir =
         o.cache_dir.empty() ? penumbra::reference::default_cache_dir() : o.cache_dir;
   o.measure.trace.progress = true;
+  if (o.flicker_options.truth) o.flicker_options.truth->progress = true;
 
   penumbra::gpu::Context ctx;
   penumbra::render::RendererOptions ro;
@@ -240,12 +250,27 @@ int run(int argc, char** argv) {
         const auto& f = results[i];
         header << (i ? ", " : "") << json_string(f.light) << ": {\"fraction\": " << f.fraction()
                << ", \"fraction_lit\": " << f.fraction_lit()
-               << ", \"edge_pixels\": " << f.edge_pixels << ", \"changed\": " << f.changed << "}";
+               << ", \"edge_pixels\": " << f.edge_pixels << ", \"changed\": " << f.changed;
+        if (f.has_truth)
+          header << ", \"truth_fraction\": " << f.truth_fraction()
+                 << ", \"truth_fraction_lit\": " << f.truth_fraction_lit()
+                 << ", \"truth_edge_pixels\": " << f.truth_edge_pixels
+                 << ", \"truth_changed\": " << f.truth_changed
+                 << ", \"excess_fraction\": " << f.excess_fraction()
+                 << ", \"excess_fraction_lit\": " << f.excess_fraction_lit()
+                 << ", \"excess_changed\": " << f.excess_changed;
+        header << "}";
         std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
                     "frames\n",
                     f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
                     100.0 * f.fraction_lit(),
                     o.flicker_options.frames);
+        if (f.has_truth)
+          std::printf("        %-14s %-7s truth %.2f%% of %zu (%.2f%% by n.l); not in the "
+                      "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels\n",
+                      "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
+                      100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
+                      100.0 * f.excess_fraction_lit());
         fs::create_directories(o.out);
         penumbra::render::write_png(
             o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,

@@ -56,6 +56,7 @@ uint64_t cache_key(const Tracer& tracer, const Receivers& receivers, const AreaL
   h.pod(options.adaptive);
   h.pod(options.seed);
   h.pod(int(options.terminator));
+  if (options.shared_pattern) h.pod(options.shared_pattern);  // older keys stay valid
   return h.h;
 }
 

@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
+#include <memory>
 #include <penumbra/core/error.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/reference/temporal.hpp>
@@ -80,73 +81,155 @@ CameraPath find_path(const std::string& name) {
   throw Error("no camera path '" + name + "' (the paths: " + have + ")");
 }
 
+namespace {
+
+// One pixel of `current` against `previous`: whether it is a shadow edge, whether it
+// reprojects onto the same surface (measured), and whether it changed beyond the threshold.
+struct PixelFlicker {
+  bool measured = false, edge = false, changed = false;
+};
+
+class Reprojection {
+ public:
+  Reprojection(const FrameSample& previous, const FrameSample& current)
+      : p_(previous), c_(current) {
+    const Receivers& pr = previous.receivers;
+    const Receivers& cr = current.receivers;
+    if (pr.width != cr.width || pr.height != cr.height ||
+        previous.visibility.size() != pr.size() || current.visibility.size() != cr.size() ||
+        previous.reached.size() != pr.size() || current.reached.size() != cr.size())
+      throw Error("count_flicker: the two frames differ in size");
+    prev_view_proj_ = previous.camera.proj * previous.camera.view;
+    eye_ = cr.origin + cr.eye.value_or(glm::dvec3(0.0));
+  }
+
+  PixelFlicker at(uint32_t x, uint32_t y, float threshold) const {
+    const Receivers& pr = p_.receivers;
+    const Receivers& cr = c_.receivers;
+    const uint32_t w = cr.width, h = cr.height;
+    const size_t i = size_t{y} * w + x;
+    PixelFlicker out;
+    if (!usable(cr, c_.reached, i)) return out;
+    // A shadow edge in the current frame.
+    const float v = c_.visibility[i];
+    float lo = v, hi = v;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int nx = int(x) + dx, ny = int(y) + dy;
+        if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
+        const size_t j = size_t(ny) * w + size_t(nx);
+        if (!usable(cr, c_.reached, j)) continue;
+        lo = std::min(lo, c_.visibility[j]);
+        hi = std::max(hi, c_.visibility[j]);
+      }
+    out.edge = hi - lo >= kEdgeSpan || (v > kPenumbraLow && v < kPenumbraHigh);
+    // Its world position in the previous frame's pixels (centre coordinates).
+    const glm::dvec3 world = cr.origin + cr.position[i];
+    const glm::dvec4 c = prev_view_proj_ * glm::dvec4(world - p_.camera.origin, 1.0);
+    if (!(c.w > 0.0)) return out;
+    const double px = (c.x / c.w + 1.0) * 0.5 * w - 0.5;
+    const double py = (c.y / c.w + 1.0) * 0.5 * h - 0.5;
+    const double fx = std::floor(px), fy = std::floor(py);
+    if (!(fx >= 0.0 && fy >= 0.0 && fx + 1.0 < double(w) && fy + 1.0 < double(h))) return out;
+    const double ax = px - fx, ay = py - fy;
+    const double tolerance = kSurfaceFraction * glm::length(world - eye_) + kSurfaceConstant;
+    // The range of the previous frame's values around the point: the neighbours that carry
+    // weight in the bilinear footprint (a TAA resolve's neighbourhood clamp). A value inside
+    // it is the same shadow seen from elsewhere (a point-sampled edge, moved a fraction of a
+    // pixel); outside it by more than the threshold, the shadow itself changed.
+    double prev_lo = 2.0, prev_hi = -1.0;
+    for (int k = 0; k < 4; ++k) {
+      const size_t j = size_t(fy + (k >> 1)) * w + size_t(fx + (k & 1));
+      const double weight = ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay);
+      if (weight <= kNeighbourWeight) continue;
+      if (!(usable(pr, p_.reached, j) &&
+            glm::length(pr.origin + pr.position[j] - world) <= tolerance &&
+            glm::dot(pr.normal[j], cr.normal[i]) >= kSameNormal))
+        return out;  // another surface
+      prev_lo = std::min(prev_lo, double(p_.visibility[j]));
+      prev_hi = std::max(prev_hi, double(p_.visibility[j]));
+    }
+    if (prev_hi < prev_lo) return out;
+    out.measured = true;
+    out.changed = double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold);
+    return out;
+  }
+
+  double weight(size_t i) const {
+    return c_.weight.size() == c_.receivers.size() ? double(c_.weight[i]) : 1.0;
+  }
+
+ private:
+  static bool usable(const Receivers& r, const std::vector<uint8_t>& reached, size_t i) {
+    return r.valid[i] && reached[i];
+  }
+  const FrameSample& p_;
+  const FrameSample& c_;
+  glm::dmat4 prev_view_proj_{1.0};
+  glm::dvec3 eye_{0.0};
+};
+
+}  // namespace
+
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
                    size_t& edge_pixels, size_t& changed, std::vector<uint32_t>* per_pixel,
                    double* edge_weight, double* changed_weight) {
-  const Receivers& pr = previous.receivers;
-  const Receivers& cr = current.receivers;
-  const uint32_t w = cr.width, h = cr.height;
-  if (pr.width != w || pr.height != h || previous.visibility.size() != pr.size() ||
-      current.visibility.size() != cr.size() || previous.reached.size() != pr.size() ||
-      current.reached.size() != cr.size())
-    throw Error("count_flicker: the two frames differ in size");
-  const glm::dmat4 prev_view_proj = previous.camera.proj * previous.camera.view;
-  const glm::dvec3 eye = cr.origin + cr.eye.value_or(glm::dvec3(0.0));
-  auto usable = [](const Receivers& r, const std::vector<uint8_t>& reached, size_t i) {
-    return r.valid[i] && reached[i];
+  const Reprojection r(previous, current);
+  const uint32_t w = current.receivers.width, h = current.receivers.height;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      const PixelFlicker f = r.at(x, y, threshold);
+      if (!f.measured || !f.edge) continue;
+      const size_t i = size_t{y} * w + x;
+      ++edge_pixels;
+      const double weight = r.weight(i);
+      if (edge_weight) *edge_weight += weight;
+      if (!f.changed) continue;
+      ++changed;
+      if (changed_weight) *changed_weight += weight;
+      if (per_pixel && per_pixel->size() == current.receivers.size()) ++(*per_pixel)[i];
+    }
+}
+
+std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSample& current,
+                                    float threshold) {
+  const Reprojection r(previous, current);
+  const uint32_t w = current.receivers.width, h = current.receivers.height;
+  std::vector<uint8_t> out(size_t{w} * h, 0);
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      const PixelFlicker f = r.at(x, y, threshold);
+      out[size_t{y} * w + x] = f.measured && f.changed ? 1 : 0;
+    }
+  return out;
+}
+
+void count_excess_flicker(const FrameSample& previous, const FrameSample& current,
+                          float threshold, std::span<const uint8_t> excused, Flicker& flicker) {
+  const Reprojection r(previous, current);
+  const uint32_t w = current.receivers.width, h = current.receivers.height;
+  if (excused.size() != size_t{w} * h)
+    throw Error("count_excess_flicker: the truth's changes and the frame differ in size");
+  if (flicker.excess_per_pixel.size() != excused.size())
+    flicker.excess_per_pixel.assign(excused.size(), 0);
+  flicker.has_truth = true;
+  // Aliasing of detail finer than a pixel picks neighbouring pixels at random: the truth's
+  // change at a pixel or any of its 8 neighbours excuses the renderer's.
+  auto excused_near = [&](uint32_t x, uint32_t y) {
+    for (uint32_t ny = y > 0 ? y - 1 : 0; ny <= std::min(y + 1, h - 1); ++ny)
+      for (uint32_t nx = x > 0 ? x - 1 : 0; nx <= std::min(x + 1, w - 1); ++nx)
+        if (excused[size_t{ny} * w + nx]) return true;
+    return false;
   };
   for (uint32_t y = 0; y < h; ++y)
     for (uint32_t x = 0; x < w; ++x) {
       const size_t i = size_t{y} * w + x;
-      if (!usable(cr, current.reached, i)) continue;
-      // A shadow edge in the current frame.
-      const float v = current.visibility[i];
-      float lo = v, hi = v;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int nx = int(x) + dx, ny = int(y) + dy;
-          if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
-          const size_t j = size_t(ny) * w + size_t(nx);
-          if (!usable(cr, current.reached, j)) continue;
-          lo = std::min(lo, current.visibility[j]);
-          hi = std::max(hi, current.visibility[j]);
-        }
-      if (!(hi - lo >= kEdgeSpan || (v > kPenumbraLow && v < kPenumbraHigh))) continue;
-      // Its world position in the previous frame's pixels (centre coordinates).
-      const glm::dvec3 world = cr.origin + cr.position[i];
-      const glm::dvec4 c = prev_view_proj * glm::dvec4(world - previous.camera.origin, 1.0);
-      if (!(c.w > 0.0)) continue;
-      const double px = (c.x / c.w + 1.0) * 0.5 * w - 0.5;
-      const double py = (c.y / c.w + 1.0) * 0.5 * h - 0.5;
-      const double fx = std::floor(px), fy = std::floor(py);
-      if (!(fx >= 0.0 && fy >= 0.0 && fx + 1.0 < double(w) && fy + 1.0 < double(h))) continue;
-      const double ax = px - fx, ay = py - fy;
-      const double tolerance = kSurfaceFraction * glm::length(world - eye) + kSurfaceConstant;
-      // The range of the previous frame's values around the point: the neighbours that carry
-      // weight in the bilinear footprint (a TAA resolve's neighbourhood clamp). A value inside
-      // it is the same shadow seen from elsewhere (a point-sampled edge, moved a fraction of a
-      // pixel); outside it by more than the threshold, the shadow itself changed.
-      double prev_lo = 2.0, prev_hi = -1.0;
-      bool same_surface = true;
-      for (int k = 0; k < 4 && same_surface; ++k) {
-        const size_t j = size_t(fy + (k >> 1)) * w + size_t(fx + (k & 1));
-        const double weight = ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay);
-        if (weight <= kNeighbourWeight) continue;
-        same_surface = usable(pr, previous.reached, j) &&
-                       glm::length(pr.origin + pr.position[j] - world) <= tolerance &&
-                       glm::dot(pr.normal[j], cr.normal[i]) >= kSameNormal;
-        prev_lo = std::min(prev_lo, double(previous.visibility[j]));
-        prev_hi = std::max(prev_hi, double(previous.visibility[j]));
-      }
-      if (!same_surface || prev_hi < prev_lo) continue;
-      ++edge_pixels;
-      const double weight = current.weight.size() == cr.size() ? double(current.weight[i]) : 1.0;
-      if (edge_weight) *edge_weight += weight;
-      if (double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold)) {
-        ++changed;
-        if (changed_weight) *changed_weight += weight;
-        if (per_pixel && per_pixel->size() == cr.size()) ++(*per_pixel)[i];
-      }
+      if (excused_near(x, y)) continue;
+      const PixelFlicker f = r.at(x, y, threshold);
+      if (!f.measured || !f.edge || !f.changed) continue;
+      ++flicker.excess_changed;
+      flicker.excess_changed_weight += r.weight(i);
+      ++flicker.excess_per_pixel[i];
     }
 }
 
@@ -155,15 +238,23 @@ std::vector<uint8_t> flicker_image(const Flicker& flicker, std::span<const uint8
   const size_t n = size_t{flicker.width} * flicker.height;
   if (lit.size() != n * 4 || flicker.changed_per_pixel.size() != n)
     throw Error("flicker_image: the frame and the counts differ in size");
+  const bool split = flicker.has_truth && flicker.excess_per_pixel.size() == n;
   std::vector<uint8_t> out(n * 4);
   for (size_t i = 0; i < n; ++i) {
     const float grey =
         0.5f * (0.299f * lit[4 * i] + 0.587f * lit[4 * i + 1] + 0.114f * lit[4 * i + 2]);
-    const float f = pairs ? std::min(1.0f, float(flicker.changed_per_pixel[i]) / float(pairs)) : 0;
+    // Red: flicker (with the truth measured, only what the truth does not share); blue: what
+    // the truth shares.
+    const uint32_t red_count = split ? flicker.excess_per_pixel[i] : flicker.changed_per_pixel[i];
+    const uint32_t blue_count = split ? flicker.changed_per_pixel[i] - red_count : 0;
+    const bool red = red_count > 0;
+    const uint32_t count = red ? red_count : blue_count;
+    const float f = pairs ? std::min(1.0f, float(count) / float(pairs)) : 0;
     const float k = f > 0.0f ? 0.35f + 0.65f * f : 0.0f;  // any flicker shows
-    out[4 * i] = uint8_t(std::lround(grey * (1.0f - k) + 255.0f * k));
-    out[4 * i + 1] = uint8_t(std::lround(grey * (1.0f - k)));
-    out[4 * i + 2] = uint8_t(std::lround(grey * (1.0f - k)));
+    const float base = grey * (1.0f - k);
+    out[4 * i] = uint8_t(std::lround(base + (red ? 255.0f * k : 0.0f)));
+    out[4 * i + 1] = uint8_t(std::lround(base + (red ? 0.0f : 96.0f * k)));
+    out[4 * i + 2] = uint8_t(std::lround(base + (red ? 0.0f : 255.0f * k)));
     out[4 * i + 3] = 255;
   }
   return out;
@@ -193,6 +284,12 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
   const scene::Camera camera = s.camera;
   const std::optional<scene::Sun> sun = s.sun;
   std::vector<FrameSample> previous(lights.size()), current(lights.size());
+  // The truth at the same receivers (FlickerOptions::truth): a BVH per relative origin.
+  std::vector<FrameSample> previous_truth(options.truth ? lights.size() : 0),
+      current_truth(options.truth ? lights.size() : 0);
+  std::unique_ptr<Tracer> tracer;
+  TraceOptions truth_options = options.truth.value_or(TraceOptions{});
+  truth_options.shared_pattern = true;
   try {
     for (uint32_t k = 0; k < options.frames; ++k) {
       s.camera = camera;
@@ -217,8 +314,30 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
           count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed,
                         &out[li].changed_per_pixel, &out[li].edge_weight,
                         &out[li].changed_weight);
+        if (!options.truth) continue;
+        if (!tracer || tracer->origin() != receivers.origin)
+          tracer = std::make_unique<Tracer>(s, receivers.origin);
+        FrameSample& t = current_truth[li];
+        t.receivers = receivers;
+        t.camera = f.camera;
+        t.reached = f.reached;
+        t.weight = f.weight;
+        Receivers reached = receivers;
+        for (size_t i = 0; i < reached.size(); ++i)
+          if (!f.reached[i]) reached.valid[i] = 0;
+        truth_options.progress_label =
+            "truth " + lights[li].name() + " " + path.name + " " + std::to_string(k);
+        t.visibility = tracer->trace(reached, area_light(s, lights[li]), truth_options).value;
+        if (k == 0) continue;
+        Flicker& o = out[li];
+        o.has_truth = true;
+        count_flicker(previous_truth[li], t, options.threshold, o.truth_edge_pixels,
+                      o.truth_changed, nullptr, &o.truth_edge_weight, &o.truth_changed_weight);
+        count_excess_flicker(previous[li], f, options.threshold,
+                             changed_pixels(previous_truth[li], t, options.threshold), o);
       }
       std::swap(previous, current);
+      std::swap(previous_truth, current_truth);
     }
   } catch (...) {
     s.camera = camera;

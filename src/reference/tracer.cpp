@@ -551,7 +551,9 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
           visible = occluded(scene, context, org, to_centre, dist) ? 0 : 1;
           count = 1;
         } else {
-          const uint64_t seed = detail::mix64(options.seed ^ detail::mix64(i));
+          const uint64_t seed = options.shared_pattern
+                                    ? detail::mix64(options.seed)
+                                    : detail::mix64(options.seed ^ detail::mix64(i));
           glm::dvec3 b1(0.0), b2(0.0);
           if (light.kind != LightKind::sun) basis(to_centre, b1, b2);
           for (; count < max_samples; ++count) {

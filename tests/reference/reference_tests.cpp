@@ -509,6 +509,49 @@ TEST(ReferenceDeterminism, SameSeedSameBitsWhateverTheThreadCount) {
   EXPECT_FALSE(same_bits(a, tracer.trace(c.receivers, light, other)));
 }
 
+// With a shared pattern every receiver draws the same light samples, so the estimate depends on
+// the receiver's position only: the same point twice (two frames' pixels on one surface point)
+// gets the same value; with independent patterns their Monte Carlo noise differs.
+TEST(ReferenceDeterminism, ASharedPatternGivesTheSamePointTheSameValue) {
+  const Tracer tracer(ball_scene(), glm::dvec3(0.0));
+  const auto c = sphere_case(tracer);
+  const auto light = sphere_light({0, kLightHeight, 0}, kLightRadius);
+  // Every receiver twice: [0, n) and [n, 2n) are the same points.
+  Receivers twice = c.receivers;
+  twice.position.insert(twice.position.end(), c.receivers.position.begin(),
+                        c.receivers.position.end());
+  twice.normal.insert(twice.normal.end(), c.receivers.normal.begin(), c.receivers.normal.end());
+  twice.valid.insert(twice.valid.end(), c.receivers.valid.begin(), c.receivers.valid.end());
+  twice.width = uint32_t(twice.position.size());
+  twice.height = 1;
+  const size_t n = c.receivers.size();
+  auto differing = [&](const Visibility& v, size_t* partial) {
+    size_t d = 0;
+    *partial = 0;
+    for (size_t i = 0; i < n; ++i) {
+      if (v.value[i] > 0.0f && v.value[i] < 1.0f) ++*partial;
+      d += v.value[i] != v.value[n + i];
+    }
+    return d;
+  };
+  TraceOptions independent;
+  size_t partial = 0;
+  EXPECT_GT(differing(tracer.trace(twice, light, independent), &partial), 0u);
+  ASSERT_GE(partial, 8u) << "the case must have penumbra receivers";
+  TraceOptions shared;
+  shared.shared_pattern = true;
+  const auto v = tracer.trace(twice, light, shared);
+  EXPECT_EQ(differing(v, &partial), 0u);
+  ASSERT_GE(partial, 8u);
+  // The shared pattern is still an estimate of the same visibility.
+  const auto reference = tracer.trace(c.receivers, light, independent);
+  double mean = 0.0;
+  for (size_t i = 0; i < n; ++i) mean += std::abs(double(v.value[i]) - reference.value[i]);
+  EXPECT_LT(mean / double(n), 0.02);
+  EXPECT_NE(cache_key(tracer, c.receivers, light, shared),
+            cache_key(tracer, c.receivers, light, independent));
+}
+
 struct TempDir {
   fs::path path;
   TempDir() {

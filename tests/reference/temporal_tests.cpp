@@ -3,6 +3,7 @@
 // shadow), then with changes put in on purpose.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <functional>
 #include <glm/gtc/matrix_transform.hpp>
@@ -161,6 +162,38 @@ TEST(Flicker, OnlyReprojectablePixelsTheLightReachesCount) {
   EXPECT_EQ(count(turned, a).edge, 0u);
 }
 
+// The truth's changes excuse the renderer's: a shadow that really moved (a turning sun) moves in
+// the truth too, and only the renderer's changes the truth does not share are excess.
+TEST(Flicker, ExcessIsTheFlickerTheTruthDoesNotShare) {
+  const FrameSample a = frame(kEye, kTarget, soft_edge);
+  const glm::dvec3 d(0.01, 0.0, 0.0);
+  const FrameSample moved = frame(kEye + d, kTarget + d, [](glm::dvec3 p) {
+    return soft_edge(p - glm::dvec3(0.1, 0.0, 0.0));
+  });
+  const FrameSample still = frame(kEye + d, kTarget + d, soft_edge);
+  const Counts c = count(a, moved);
+  ASSERT_GT(c.changed, 50u);
+  // changed_pixels marks what changed, edge or not: all of the renderer's changed edge pixels.
+  const std::vector<uint8_t> truth_moved = changed_pixels(a, moved, 8.0f / 255.0f);
+  size_t marked = 0;
+  for (uint8_t m : truth_moved) marked += m;
+  EXPECT_GE(marked, c.changed);
+  const std::vector<uint8_t> truth_still = changed_pixels(a, still, 8.0f / 255.0f);
+  EXPECT_EQ(std::count(truth_still.begin(), truth_still.end(), uint8_t{1}), 0);
+  // The truth moved the same way: no excess.
+  Flicker shared;
+  count_excess_flicker(a, moved, 8.0f / 255.0f, truth_moved, shared);
+  EXPECT_TRUE(shared.has_truth);
+  EXPECT_EQ(shared.excess_changed, 0u);
+  // The truth held still: every change is excess.
+  Flicker excess;
+  count_excess_flicker(a, moved, 8.0f / 255.0f, truth_still, excess);
+  EXPECT_EQ(excess.excess_changed, c.changed);
+  EXPECT_DOUBLE_EQ(excess.excess_changed_weight, double(c.changed));
+  ASSERT_EQ(excess.excess_per_pixel.size(), a.visibility.size());
+  EXPECT_THROW(count_excess_flicker(a, moved, 0.03f, std::vector<uint8_t>(3), excess), Error);
+}
+
 TEST(Flicker, FramesOfDifferentSizesAreAClearError) {
   const FrameSample a = frame(kEye, kTarget, soft_edge);
   FrameSample b = a;
@@ -181,6 +214,15 @@ TEST(Flicker, TheImageMarksWhereItFlickered) {
   EXPECT_EQ(img[4], 255) << "every pair flickered: red";
   EXPECT_EQ(img[5], 0);
   EXPECT_THROW((void)flicker_image(f, std::vector<uint8_t>(4), 3), Error);
+  // With the truth measured, what the truth shares is blue and the excess red.
+  f.has_truth = true;
+  f.changed_per_pixel = {3, 3};
+  f.excess_per_pixel = {0, 3};
+  const std::vector<uint8_t> split = flicker_image(f, lit, 3);
+  EXPECT_EQ(split[0], 0) << "shared with the truth: blue";
+  EXPECT_EQ(split[2], 255);
+  EXPECT_EQ(split[4], 255) << "excess: red";
+  EXPECT_EQ(split[6], 0);
 }
 
 TEST(Flicker, PathsAreFoundByName) {

@@ -17,6 +17,7 @@
 
 #include <penumbra/reference/reference.hpp>
 #include <penumbra/render/renderer.hpp>
+#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -44,6 +45,13 @@ CameraPath find_path(const std::string& name);
 struct FlickerOptions {
   uint32_t frames = 16;           // rendered along the path (>= 2): frames - 1 pairs
   float threshold = 8.0f / 255.0f;  // a change above this is flicker
+  // When set, the reference is traced at every frame's receivers as well (with these options;
+  // shared_pattern is forced on, so the truth has no frame-to-frame Monte Carlo noise) and
+  // measured the same way. The truth flickers too where shadow detail is finer than a pixel
+  // (pixel centres land on other holes of a perforated screen as the camera moves) and where
+  // the shadows themselves move (a turning sun): Flicker::truth_* counts that, and
+  // Flicker::excess_* the renderer's flicker where the truth held still.
+  std::optional<TraceOptions> truth;
 };
 
 struct Flicker {
@@ -59,6 +67,33 @@ struct Flicker {
   double edge_weight = 0.0, changed_weight = 0.0;
   double fraction() const { return edge_pixels ? double(changed) / double(edge_pixels) : 0.0; }
   double fraction_lit() const { return edge_weight > 0.0 ? changed_weight / edge_weight : 0.0; }
+
+  // With FlickerOptions::truth. The truth's own flicker: its shadow-edge pixels (by its own
+  // visibility) and how many of them changed.
+  bool has_truth = false;
+  size_t truth_edge_pixels = 0, truth_changed = 0;
+  double truth_edge_weight = 0.0, truth_changed_weight = 0.0;
+  // Of the renderer's changed edge pixels, those where the truth's visibility stayed within
+  // its earlier range (by the same threshold) there and at the 8 neighbours: flicker the truth
+  // does not have. Its fraction is over the truth's edge pixels, a count that is the same for
+  // every technique: a blurrier filter has more edge pixels of its own (its penumbrae), which
+  // lowers fraction() without anything changing less (PCF radius 1 on the indoor lights: 5x
+  // the edge pixels, about as many changed).
+  size_t excess_changed = 0;
+  double excess_changed_weight = 0.0;
+  std::vector<uint32_t> excess_per_pixel;  // how many of the frame pairs flickered in excess
+  double truth_fraction() const {
+    return truth_edge_pixels ? double(truth_changed) / double(truth_edge_pixels) : 0.0;
+  }
+  double truth_fraction_lit() const {
+    return truth_edge_weight > 0.0 ? truth_changed_weight / truth_edge_weight : 0.0;
+  }
+  double excess_fraction() const {
+    return truth_edge_pixels ? double(excess_changed) / double(truth_edge_pixels) : 0.0;
+  }
+  double excess_fraction_lit() const {
+    return truth_edge_weight > 0.0 ? excess_changed_weight / truth_edge_weight : 0.0;
+  }
 };
 
 // Renders options.frames frames along `path` (frame k: the scene's camera or sun moved k
@@ -83,8 +118,20 @@ void count_flicker(const FrameSample& previous, const FrameSample& current, floa
                    std::vector<uint32_t>* per_pixel = nullptr, double* edge_weight = nullptr,
                    double* changed_weight = nullptr);
 
+// Per pixel of `current`: 1 where it reprojects onto the same surface in `previous` and its
+// visibility lies outside the earlier range by more than `threshold`, whether or not it is a
+// shadow edge (the truth's changes that excuse the renderer's).
+std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSample& current,
+                                    float threshold);
+// Flicker::excess_*: adds the renderer's changed edge pixels where `excused` (the truth's
+// changed_pixels) is 0 at the pixel and its 8 neighbours (aliasing of detail finer than a pixel
+// picks neighbouring pixels at random).
+void count_excess_flicker(const FrameSample& previous, const FrameSample& current,
+                          float threshold, std::span<const uint8_t> excused, Flicker& flicker);
+
 // A picture of where a path flickered: the frame in grey, each pixel red in proportion to the
-// pairs of frames in which it flickered (RGBA8, `lit` is the measured frame).
+// pairs of frames in which it flickered (RGBA8, `lit` is the measured frame). With the truth
+// measured, flicker the truth shares is blue and only the excess is red.
 std::vector<uint8_t> flicker_image(const Flicker& flicker, std::span<const uint8_t> lit,
                                    uint32_t pairs);
 
