@@ -76,9 +76,8 @@ struct Flicker {
   // Of the renderer's changed edge pixels, those where the truth's visibility stayed within
   // its earlier range (by the same threshold) there and at the 8 neighbours: flicker the truth
   // does not have. Its fraction is over the truth's edge pixels, a count that is the same for
-  // every technique: a blurrier filter has more edge pixels of its own (its penumbrae), which
-  // lowers fraction() without anything changing less (PCF radius 1 on the indoor lights: 5x
-  // the edge pixels, about as many changed).
+  // every technique: a blurrier or noisier frame has more edge pixels of its own (penumbrae,
+  // acne), which lowers fraction() without anything changing less.
   size_t excess_changed = 0;
   double excess_changed_weight = 0.0;
   std::vector<uint32_t> excess_per_pixel;  // how many of the frame pairs flickered in excess
