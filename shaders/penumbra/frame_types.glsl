@@ -36,6 +36,12 @@ struct FrameGpu {
   vec4 filter_world;  // x: 1 keeps PCF / Poisson widths constant in world units across cascades
 };
 
+struct TemporalGpu {
+  mat4 to_previous_view;
+  mat4 previous_proj;
+  vec4 params;
+};
+
 struct DrawPush {
   mat4 model;
   vec4 albedo;

@@ -290,6 +290,9 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
   std::unique_ptr<Tracer> tracer;
   TraceOptions truth_options = options.truth.value_or(TraceOptions{});
   truth_options.shared_pattern = true;
+  // A path starts from a still camera: no history from whatever the renderer drew before
+  // (shadows.temporal).
+  renderer.reset_history();
   try {
     for (uint32_t k = 0; k < options.frames; ++k) {
       s.camera = camera;

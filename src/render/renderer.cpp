@@ -1,10 +1,12 @@
 // The renderer: owns the frame's shared resources (passes/passes.hpp), builds the passes a scene
 // requires, orders them, and owns the timestamps, the readbacks and the build report. A frame:
-// pack_frame (CPU) -> upload -> shadow maps -> prepass -> shadow resolve -> contact shadows ->
-// forward -> tonemap -> copy to the readback buffer.
+// pack_frame (CPU) -> upload -> shadow maps -> prepass -> shadow resolves -> shadow temporal ->
+// contact shadows -> forward -> tonemap -> copy to the readback buffer.
 
 #include <algorithm>
 #include <cstring>
+#include <glm/gtc/matrix_transform.hpp>
+#include <optional>
 #include <glm/gtc/packing.hpp>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
@@ -25,6 +27,32 @@ std::vector<float> unpack_halves(const std::vector<std::byte>& bytes) {
   std::vector<float> out(bytes.size() / 2);
   for (size_t i = 0; i < out.size(); ++i) out[i] = glm::unpackHalf1x16(h[i]);
   return out;
+}
+
+// What resets the temporal history when it changes: the packed frame without the camera, the
+// sun's direction and the frame index (FNV-1a over the bytes of the members that stay).
+uint64_t history_key(const FrameGpu& f) {
+  uint64_t h = 1469598103934665603ull;
+  auto add = [&h](const auto& v) {
+    const auto* b = reinterpret_cast<const unsigned char*>(&v);
+    for (size_t i = 0; i < sizeof(v); ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  add(f.sun_direction.w);
+  add(f.sun_color);
+  add(f.ambient);
+  add(f.viewport);
+  add(f.projection);
+  add(f.bias);
+  add(f.filter_params);
+  add(f.mode.y);
+  add(f.mode.z);
+  add(f.mode.w);
+  add(f.counts);
+  for (const auto& l : f.spots) add(l.color_intensity), add(l.params), add(l.direction_cos.w);
+  for (const auto& l : f.points) add(l.color_intensity), add(l.params);
+  add(f.pcss);
+  add(f.filter_world);
+  return h;
 }
 
 }  // namespace
@@ -78,8 +106,18 @@ struct Renderer::Impl {
     res.visibility_output = o.visibility_output;
   }
 
+  // The temporal history (shadows.temporal): the last frame's camera, and what resets it.
+  struct LastCamera {
+    glm::dmat4 view{1.0}, proj{1.0};
+    glm::dvec3 origin{0.0};
+  };
+  std::optional<LastCamera> last_camera;
+  uint64_t last_key = 0;
+
   ReloadResult reload(const std::vector<fs::path>& changed) {
-    return registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
+    ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
+    if (!result.rebuilt.empty()) last_camera.reset();
+    return result;
   }
 
   void upload_meshes() {
@@ -136,6 +174,8 @@ struct Renderer::Impl {
     std::unique_ptr<Pass> local_resolve;
     if (req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0)
       local_resolve = std::make_unique<LocalShadowResolvePass>(res, *shadow_maps);
+    std::unique_ptr<Pass> temporal;  // before the forward pass, which reads its images
+    if (req.temporal) temporal = std::make_unique<TemporalShadowPass>(res);
     std::unique_ptr<Pass> contact;
     if (req.contact_pass)  // steps > 0 and a light to march towards (the primary one)
       contact = std::make_unique<ContactPass>(res);
@@ -144,6 +184,7 @@ struct Renderer::Impl {
     passes.push_back(std::move(prepass));
     if (resolve) passes.push_back(std::move(resolve));
     if (local_resolve) passes.push_back(std::move(local_resolve));
+    if (temporal) passes.push_back(std::move(temporal));
     if (contact) passes.push_back(std::move(contact));
     passes.push_back(std::move(forward));
     passes.push_back(std::move(tonemap));
@@ -159,6 +200,29 @@ struct Renderer::Impl {
     res.packed = pack_frame(scene, res.width, res.height, caps, frame_index);
     res.frame_ubo.write(std::as_bytes(std::span(&res.packed.frame, 1)));
     shadow_maps->upload(res.packed);
+    if (res.req.temporal) update_temporal();
+  }
+
+  // The temporal block: this frame's points in the last frame's view, and whether the history
+  // holds this scene as it is now.
+  void update_temporal() {
+    const FrameGpu& f = res.packed.frame;
+    const uint64_t key = history_key(f);
+    if (key != last_key) last_camera.reset();
+    last_key = key;
+    TemporalGpu t{};
+    const float weight = std::clamp(scene.shadows.temporal_weight, 0.0f, 1.0f);
+    t.params = glm::vec4(weight, last_camera ? 1.0f : 0.0f, kTemporalSurfaceFraction,
+                         kTemporalSurfaceConstant);
+    if (last_camera) {
+      // (world - origin) -> (world - last origin) -> the last view: in double, so that a world
+      // far from its origin keeps the sub-millimetre shift between the origins.
+      const glm::dmat4 shift = glm::translate(glm::dmat4(1.0), res.packed.origin - last_camera->origin);
+      t.to_previous_view = glm::mat4(last_camera->view * shift);
+      t.previous_proj = glm::mat4(last_camera->proj);
+    }
+    res.temporal_ubo.write(std::as_bytes(std::span(&t, 1)));
+    last_camera = LastCamera{glm::dmat4(f.view), glm::dmat4(f.proj), res.packed.origin};
   }
 
   void record(VkCommandBuffer cmd) {
@@ -222,6 +286,10 @@ Renderer::~Renderer() {
 
 void Renderer::render(uint32_t frame_index) {
   impl_->render(frame_index);
+}
+
+void Renderer::reset_history() {
+  impl_->last_camera.reset();
 }
 
 std::vector<uint8_t> Renderer::read_rgba8() {

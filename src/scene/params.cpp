@@ -324,6 +324,19 @@ std::vector<Param> make_params() {
        slider(0.0, 0.1)},
       {"shadows.reverse_z", T::boolean, kAny, field<&S::shadows, &ShadowSettings::reverse_z>(),
        A::rebuild, "the depth convention of every depth buffer and shadow map"},
+      {"shadows.temporal", T::boolean, kAny, field<&S::shadows, &ShadowSettings::temporal>(),
+       A::rebuild,
+       "accumulate every light's visibility over frames (reprojected through the depth "
+       "buffer, clamped to the frame's 3x3 neighbourhood): less flicker, a lag behind moving "
+       "shadows"},
+      {"shadows.temporal_weight",
+       T::number,
+       ParamRange{0.0, 1.0, true, false},
+       field<&S::shadows, &ShadowSettings::temporal_weight>(),
+       A::frame,
+       "the new frame's share of the accumulated visibility with `temporal` (1: no history)",
+       {},
+       slider(0.02, 1.0)},
       // [contact]
       {"contact.steps", T::integer, closed(0, kMaxContactSteps),
        field<&S::contact, &ContactSettings::step_count>(), A::rebuild,

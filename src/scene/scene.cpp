@@ -85,6 +85,8 @@ Scene::Requirements Scene::requirements() const {
   for (const PointLight& point : points) r.point_shadow_cubes += point.shadows ? 1 : 0;
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
   r.contact_pass = contact.step_count > 0 && has_light;
+  r.temporal = shadows.temporal &&
+               (r.sun_shadows || r.spot_shadow_maps > 0 || r.point_shadow_cubes > 0);
   for (const Instance& instance : instances) {
     if (instance.material < materials.size() &&
         materials[instance.material].alpha == AlphaMode::masked) {

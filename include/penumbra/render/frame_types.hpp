@@ -70,6 +70,24 @@ static_assert(offsetof(FrameGpu, pcss) == 688);
 static_assert(offsetof(FrameGpu, filter_world) == 704);
 static_assert(sizeof(FrameGpu) == 720);
 
+// The shadow-temporal pass's block (shaders/render/shadow_temporal.comp): how this frame's
+// pixels find the last frame's.
+struct alignas(16) TemporalGpu {
+  glm::mat4 to_previous_view;  // this frame's (world - origin) -> the last frame's view space
+  glm::mat4 previous_proj;     // the last frame's view -> clip
+  // x: the new frame's share (shadows.temporal_weight); y: 1 when the history is usable
+  // (0: the first frame, or after a reset); z, w: a reprojected point is on the same surface
+  // when the last frame's distance there is within z x its distance + w metres
+  glm::vec4 params;
+};
+static_assert(offsetof(TemporalGpu, previous_proj) == 64);
+static_assert(offsetof(TemporalGpu, params) == 128);
+static_assert(sizeof(TemporalGpu) == 144);
+// TemporalGpu::params.zw: a reprojected point is on the last frame's surface within 2% of its
+// distance plus 2 mm (the flicker measure's reprojection uses the same bound).
+inline constexpr float kTemporalSurfaceFraction = 0.02f;
+inline constexpr float kTemporalSurfaceConstant = 0.002f;
+
 // Push constants of every geometry pass.
 struct alignas(16) DrawPush {
   glm::mat4 model;   // object -> (world - origin)

@@ -84,6 +84,10 @@ class Renderer {
 
   // Records, submits and waits for one frame.
   void render(uint32_t frame_index = 0);
+  // With shadows.temporal: the next frame starts the accumulation afresh (a camera cut). The
+  // renderer does so itself on its first frame, after a reload that rebuilt a pipeline, and when
+  // a parameter other than the camera, the sun's direction and temporal_weight changed.
+  void reset_history();
   // The last frame's tonemapped image, RGBA8, row-major, top row first.
   std::vector<uint8_t> read_rgba8();
   // Raw shadow info of the last frame (visibility, cascade, penumbra, density), RGBA float.

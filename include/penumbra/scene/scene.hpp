@@ -129,6 +129,12 @@ struct ShadowSettings {
   float max_slope_bias = 4.0f;        // bound of the slope term, texels, >= 0
   float constant_bias = 0.0005f;      // metres along the light, >= 0
   bool reverse_z = true;
+  // Temporal accumulation of every light's visibility (the shadow-temporal pass): each pixel
+  // blends its visibility into the last frame's, reprojected through the depth buffer and
+  // clamped to this frame's 3x3 neighbourhood. temporal_weight is the new frame's share, in
+  // (0, 1]. docs/accuracy.md has the measurements behind the defaults.
+  bool temporal = false;
+  float temporal_weight = 0.2f;
 };
 
 // The most contact-shadow march steps (what contact_shadows.comp can march).
@@ -191,6 +197,7 @@ struct Scene {
     std::uint32_t point_shadow_cubes = 0;  // points with shadows = true
     bool contact_pass = false;             // contact.step_count > 0 and the scene has a light
     bool masked_materials = false;         // an instance uses a masked material
+    bool temporal = false;                 // shadows.temporal and a shadowed light
   };
   Requirements requirements() const;
 };

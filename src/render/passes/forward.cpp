@@ -44,9 +44,13 @@ ForwardPass::ForwardPass(FrameResources& r) {
   set_ = r.pool.allocate(layout_->set_layout(0));
   gpu::DescriptorWriter w;
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
-  if (req.sun_shadows) w.combined_image(1, r.info.view(), r.nearest.handle());
+  // With shadows.temporal the accumulated visibility (temporal-aux .r for the sun).
+  const bool temporal = req.temporal;
+  if (req.sun_shadows)
+    w.combined_image(1, (temporal ? r.temporal_aux : r.info).view(), r.nearest.handle());
   if (r.contact_mask) w.combined_image(2, r.contact_mask->view(), r.nearest.handle());
-  if (local) w.combined_image(3, r.local_info.view(), r.nearest.handle());
+  if (local)
+    w.combined_image(3, (temporal ? r.temporal_local : r.local_info).view(), r.nearest.handle());
   w.update(r.ctx, set_);
   r.report.passes.push_back("forward: lighting");
 }

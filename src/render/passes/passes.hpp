@@ -54,6 +54,10 @@ struct FrameResources {
   // The local lights' visibility (local shadow resolve), one channel per light, and the debug
   // views' data of the primary shadowed local light.
   gpu::Image depth, normal, info, local_info, local_debug, hdr, ldr;
+  // With shadows.temporal (TemporalShadowPass): the accumulated visibility the forward pass
+  // reads (local lights; the sun and the history's distance and normal), and the last frame's.
+  gpu::Image temporal_local, temporal_aux, history_local, history_aux;
+  gpu::Buffer temporal_ubo;
   gpu::Image visibility[2];
   gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
   gpu::Sampler nearest, shadow_compare, raw_depth;
@@ -163,6 +167,19 @@ class ShadowResolvePass final : public Pass {
 class LocalShadowResolvePass final : public Pass {
  public:
   LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  PerPixelCompute compute_;
+};
+
+// Temporal accumulation of every light's visibility (shadows.temporal): the resolves' images
+// blended with the last frame's, into temporal-local and temporal-aux, which the forward pass
+// reads instead; then copied into the history for the next frame.
+class TemporalShadowPass final : public Pass {
+ public:
+  explicit TemporalShadowPass(FrameResources& r);
   PassIo io() const override;
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
 
