@@ -258,7 +258,8 @@ int run(int argc, char** argv) {
                  << ", \"truth_changed\": " << f.truth_changed
                  << ", \"excess_fraction\": " << f.excess_fraction()
                  << ", \"excess_fraction_lit\": " << f.excess_fraction_lit()
-                 << ", \"excess_changed\": " << f.excess_changed;
+                 << ", \"excess_changed\": " << f.excess_changed
+                 << ", \"path_mean_abs_error\": " << f.path_mean_abs_error;
         header << "}";
         std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
                     "frames\n",
@@ -267,10 +268,11 @@ int run(int argc, char** argv) {
                     o.flicker_options.frames);
         if (f.has_truth)
           std::printf("        %-14s %-7s truth %.2f%% of %zu (%.2f%% by n.l); not in the "
-                      "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels\n",
+                      "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels; mean |dV| "
+                      "along the path %.4f\n",
                       "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
                       100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
-                      100.0 * f.excess_fraction_lit());
+                      100.0 * f.excess_fraction_lit(), f.path_mean_abs_error);
         fs::create_directories(o.out);
         penumbra::render::write_png(
             o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,

@@ -233,6 +233,69 @@ void count_excess_flicker(const FrameSample& previous, const FrameSample& curren
     }
 }
 
+std::vector<float> accumulate_visibility(const FrameSample& previous, const FrameSample& current,
+                                         float weight) {
+  const Receivers& pr = previous.receivers;
+  const Receivers& cr = current.receivers;
+  if (pr.width != cr.width || pr.height != cr.height ||
+      previous.visibility.size() != pr.size() || current.visibility.size() != cr.size())
+    throw Error("accumulate_visibility: the two frames differ in size");
+  const uint32_t w = cr.width, h = cr.height;
+  const glm::dmat4 prev_view = previous.camera.view;
+  const glm::dmat4 prev_proj = previous.camera.proj;
+  // The last eye, relative to the last origin.
+  const glm::dvec3 prev_eye = glm::dvec3(glm::inverse(prev_view) * glm::dvec4(0, 0, 0, 1));
+  auto distance_to_prev_eye = [&](size_t j) {
+    return glm::length(pr.position[j] - prev_eye);
+  };
+  std::vector<float> out = current.visibility;
+  for (uint32_t y = 0; y < h; ++y)
+    for (uint32_t x = 0; x < w; ++x) {
+      const size_t i = size_t{y} * w + x;
+      if (!cr.valid[i]) continue;
+      const float v = current.visibility[i];
+      float lo = v, hi = v;
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const int nx = int(x) + dx, ny = int(y) + dy;
+          if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
+          const size_t j = size_t(ny) * w + size_t(nx);
+          if (!cr.valid[j]) continue;
+          lo = std::min(lo, current.visibility[j]);
+          hi = std::max(hi, current.visibility[j]);
+        }
+      // The point relative to the last origin, in the last view.
+      const glm::dvec3 p = cr.origin + cr.position[i] - pr.origin;
+      const glm::dvec3 prev_pos = glm::dvec3(prev_view * glm::dvec4(p, 1.0));
+      const double expected = glm::length(prev_pos);
+      const glm::dvec4 c = prev_proj * glm::dvec4(prev_pos, 1.0);
+      if (!(c.w > 0.0)) continue;
+      const double px = (c.x / c.w * 0.5 + 0.5) * w - 0.5, py = (c.y / c.w * 0.5 + 0.5) * h - 0.5;
+      const double fx = std::floor(px), fy = std::floor(py), ax = px - fx, ay = py - fy;
+      double weight_sum = 0.0, sum = 0.0;
+      for (int k = 0; k < 4; ++k) {
+        const double qx = fx + (k & 1), qy = fy + (k >> 1);
+        const double tap = ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay);
+        if (tap <= kNeighbourWeight || qx < 0.0 || qy < 0.0 || qx >= double(w) ||
+            qy >= double(h))
+          continue;
+        const size_t j = size_t(qy) * w + size_t(qx);
+        if (!pr.valid[j]) continue;
+        const double tolerance =
+            double(render::kTemporalSurfaceFraction) * expected + double(render::kTemporalSurfaceConstant);
+        if (std::abs(distance_to_prev_eye(j) - expected) > tolerance ||
+            glm::dot(pr.normal[j], cr.normal[i]) < kSameNormal)
+          continue;
+        weight_sum += tap;
+        sum += tap * double(previous.visibility[j]);
+      }
+      if (weight_sum < 0.5) continue;
+      const double history = std::clamp(sum / weight_sum, double(lo), double(hi));
+      out[i] = float(history + double(weight) * (double(v) - history));
+    }
+  return out;
+}
+
 std::vector<uint8_t> flicker_image(const Flicker& flicker, std::span<const uint8_t> lit,
                                    uint32_t pairs) {
   const size_t n = size_t{flicker.width} * flicker.height;
@@ -334,6 +397,16 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
         if (k == 0) continue;
         Flicker& o = out[li];
         o.has_truth = true;
+        double error_sum = 0.0;
+        size_t error_count = 0;
+        for (size_t i = 0; i < t.visibility.size(); ++i) {
+          if (!receivers.valid[i] || !f.reached[i]) continue;
+          error_sum += std::abs(double(f.visibility[i]) - double(t.visibility[i]));
+          ++error_count;
+        }
+        // The frames' errors averaged (frames 1 .. frames - 1, k of them so far).
+        const double frame_error = error_count ? error_sum / double(error_count) : 0.0;
+        o.path_mean_abs_error += (frame_error - o.path_mean_abs_error) / double(k);
         count_flicker(previous_truth[li], t, options.threshold, o.truth_edge_pixels,
                       o.truth_changed, nullptr, &o.truth_edge_weight, &o.truth_changed_weight);
         count_excess_flicker(previous[li], f, options.threshold,

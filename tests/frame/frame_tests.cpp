@@ -268,6 +268,41 @@ void main() { x = frame.viewport.x + draw.albedo.x; }
   }
 }
 
+// The shadow-temporal pass's block, as shadow_temporal.comp declares it.
+TEST_F(FrameTest, TemporalBlockMatchesReflection) {
+  shader::Compiler compiler(shader::CompileOptions{{PENUMBRA_SHADER_DIR}, {}, false});
+  const auto spirv = compiler
+                         .compile_source(R"(#version 460
+#include "penumbra/frame_types.glsl"
+layout(local_size_x = 1) in;
+layout(std140, binding = 0) uniform TemporalBlock { TemporalGpu temporal; };
+layout(std430, binding = 1) buffer Out { float x; };
+void main() { x = temporal.to_previous_view[0].x + temporal.previous_proj[0].x + temporal.params.x; }
+)",
+                                         "temporal_layout.comp", shader::Stage::compute)
+                         .spirv;
+  const auto refl = shader::reflect(spirv);
+  const auto* ubo = refl.find_binding("TemporalBlock");
+  ASSERT_NE(ubo, nullptr);
+  ASSERT_TRUE(ubo->block.has_value());
+  const auto* t = ubo->block->find("temporal");
+  ASSERT_NE(t, nullptr);
+  EXPECT_EQ(t->size, sizeof(render::TemporalGpu));
+  ASSERT_EQ(t->members.size(), 3u) << "a GLSL member without a C++ counterpart";
+  for (const auto& m : t->members) {
+    size_t want = 0;
+    if (m.name == "to_previous_view")
+      want = offsetof(render::TemporalGpu, to_previous_view);
+    else if (m.name == "previous_proj")
+      want = offsetof(render::TemporalGpu, previous_proj);
+    else if (m.name == "params")
+      want = offsetof(render::TemporalGpu, params);
+    else
+      ADD_FAILURE() << "TemporalGpu member " << m.name << " has no C++ counterpart";
+    EXPECT_EQ(m.offset, want) << m.name;
+  }
+}
+
 TEST_F(FrameTest, SceneFileErrorReachesTheUserWithFileAndLine) {
   const std::string path = ::testing::TempDir() + "/broken_scene.toml";
   std::ofstream(path) << "name = \"broken\"\n[camera]\nposition = [0, 1, 5]\nfov = 60\n";

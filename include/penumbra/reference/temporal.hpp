@@ -87,6 +87,9 @@ struct Flicker {
   double truth_fraction_lit() const {
     return truth_edge_weight > 0.0 ? truth_changed_weight / truth_edge_weight : 0.0;
   }
+  // The mean |V - truth| over the reached receivers of frames 1 .. frames - 1: the error along
+  // the path, where a lag behind moving shadows (shadows.temporal) shows.
+  double path_mean_abs_error = 0.0;
   double excess_fraction() const {
     return truth_edge_pixels ? double(excess_changed) / double(truth_edge_pixels) : 0.0;
   }
@@ -127,6 +130,17 @@ std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSamp
 // picks neighbouring pixels at random).
 void count_excess_flicker(const FrameSample& previous, const FrameSample& current,
                           float threshold, std::span<const uint8_t> excused, Flicker& flicker);
+
+// The shadow-temporal pass (shadows.temporal, shaders/render/shadow_temporal.comp) on the CPU,
+// in double, for tests: `current`'s visibility accumulated onto `previous`'s (the accumulated
+// values of the last frame). Per pixel of `current`: its point projected into `previous`'s
+// pixels; the bilinear taps (weight above 0.001) on the same surface (the distance to the
+// last eye within 2% + 2 mm, the normals within 26 degrees) give the history when they carry
+// half the weight or more; the history is clamped to the range of `current`'s 3x3 neighbourhood
+// and moved towards the current value by `weight`. Without a history, the current value.
+// Uses the receivers, cameras and visibility of the samples (not reached or weight).
+std::vector<float> accumulate_visibility(const FrameSample& previous, const FrameSample& current,
+                                         float weight);
 
 // A picture of where a path flickered: the frame in grey, each pixel red in proportion to the
 // pairs of frames in which it flickered (RGBA8, `lit` is the measured frame). With the truth
