@@ -259,7 +259,8 @@ int run(int argc, char** argv) {
                  << ", \"excess_fraction\": " << f.excess_fraction()
                  << ", \"excess_fraction_lit\": " << f.excess_fraction_lit()
                  << ", \"excess_changed\": " << f.excess_changed
-                 << ", \"path_mean_abs_error\": " << f.path_mean_abs_error;
+                 << ", \"path_mean_abs_error\": " << f.path_mean_abs_error
+                 << ", \"path_mean_abs_error_lit\": " << f.path_mean_abs_error_lit;
         header << "}";
         std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
                     "frames\n",
@@ -269,10 +270,11 @@ int run(int argc, char** argv) {
         if (f.has_truth)
           std::printf("        %-14s %-7s truth %.2f%% of %zu (%.2f%% by n.l); not in the "
                       "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels; mean |dV| "
-                      "along the path %.4f\n",
+                      "along the path %.4f (%.4f by n.l)\n",
                       "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
                       100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
-                      100.0 * f.excess_fraction_lit(), f.path_mean_abs_error);
+                      100.0 * f.excess_fraction_lit(), f.path_mean_abs_error,
+                      f.path_mean_abs_error_lit);
         fs::create_directories(o.out);
         penumbra::render::write_png(
             o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,

@@ -397,16 +397,21 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
         if (k == 0) continue;
         Flicker& o = out[li];
         o.has_truth = true;
-        double error_sum = 0.0;
+        double error_sum = 0.0, lit_sum = 0.0, lit_weight = 0.0;
         size_t error_count = 0;
         for (size_t i = 0; i < t.visibility.size(); ++i) {
           if (!receivers.valid[i] || !f.reached[i]) continue;
-          error_sum += std::abs(double(f.visibility[i]) - double(t.visibility[i]));
+          const double e = std::abs(double(f.visibility[i]) - double(t.visibility[i]));
+          error_sum += e;
           ++error_count;
+          lit_sum += double(f.weight[i]) * e;
+          lit_weight += double(f.weight[i]);
         }
         // The frames' errors averaged (frames 1 .. frames - 1, k of them so far).
         const double frame_error = error_count ? error_sum / double(error_count) : 0.0;
+        const double frame_error_lit = lit_weight > 0.0 ? lit_sum / lit_weight : 0.0;
         o.path_mean_abs_error += (frame_error - o.path_mean_abs_error) / double(k);
+        o.path_mean_abs_error_lit += (frame_error_lit - o.path_mean_abs_error_lit) / double(k);
         count_flicker(previous_truth[li], t, options.threshold, o.truth_edge_pixels,
                       o.truth_changed, nullptr, &o.truth_edge_weight, &o.truth_changed_weight);
         count_excess_flicker(previous[li], f, options.threshold,

@@ -90,6 +90,9 @@ struct Flicker {
   // The mean |V - truth| over the reached receivers of frames 1 .. frames - 1: the error along
   // the path, where a lag behind moving shadows (shadows.temporal) shows.
   double path_mean_abs_error = 0.0;
+  // The same weighted by n·l (as the lit frame shows it): a smear across a terminator, where
+  // n·l is 0, does not show.
+  double path_mean_abs_error_lit = 0.0;
   double excess_fraction() const {
     return truth_edge_pixels ? double(excess_changed) / double(truth_edge_pixels) : 0.0;
   }
