@@ -5,6 +5,7 @@
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <memory>
+#include <utility>
 #include <penumbra/core/error.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/reference/temporal.hpp>
@@ -83,6 +84,25 @@ CameraPath find_path(const std::string& name) {
 
 namespace {
 
+// The range of `visibility` over the 3x3 neighbourhood of (x, y) in a w x h image, over the
+// pixels `use` accepts (the centre always counts).
+template <class Use>
+std::pair<float, float> neighbourhood_range(const std::vector<float>& visibility, uint32_t w,
+                                            uint32_t h, uint32_t x, uint32_t y, Use use) {
+  const float v = visibility[size_t{y} * w + x];
+  float lo = v, hi = v;
+  for (int dy = -1; dy <= 1; ++dy)
+    for (int dx = -1; dx <= 1; ++dx) {
+      const int nx = int(x) + dx, ny = int(y) + dy;
+      if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
+      const size_t j = size_t(ny) * w + size_t(nx);
+      if (!use(j)) continue;
+      lo = std::min(lo, visibility[j]);
+      hi = std::max(hi, visibility[j]);
+    }
+  return {lo, hi};
+}
+
 // One pixel of `current` against `previous`: whether it is a shadow edge, whether it
 // reprojects onto the same surface (measured), and whether it changed beyond the threshold.
 struct PixelFlicker {
@@ -112,16 +132,9 @@ class Reprojection {
     if (!usable(cr, c_.reached, i)) return out;
     // A shadow edge in the current frame.
     const float v = c_.visibility[i];
-    float lo = v, hi = v;
-    for (int dy = -1; dy <= 1; ++dy)
-      for (int dx = -1; dx <= 1; ++dx) {
-        const int nx = int(x) + dx, ny = int(y) + dy;
-        if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
-        const size_t j = size_t(ny) * w + size_t(nx);
-        if (!usable(cr, c_.reached, j)) continue;
-        lo = std::min(lo, c_.visibility[j]);
-        hi = std::max(hi, c_.visibility[j]);
-      }
+    const auto [lo, hi] = neighbourhood_range(c_.visibility, w, h, x, y, [&](size_t j) {
+      return usable(cr, c_.reached, j);
+    });
     out.edge = hi - lo >= kEdgeSpan || (v > kPenumbraLow && v < kPenumbraHigh);
     // Its world position in the previous frame's pixels (centre coordinates).
     const glm::dvec3 world = cr.origin + cr.position[i];
@@ -254,16 +267,8 @@ std::vector<float> accumulate_visibility(const FrameSample& previous, const Fram
       const size_t i = size_t{y} * w + x;
       if (!cr.valid[i]) continue;
       const float v = current.visibility[i];
-      float lo = v, hi = v;
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const int nx = int(x) + dx, ny = int(y) + dy;
-          if (nx < 0 || ny < 0 || nx >= int(w) || ny >= int(h)) continue;
-          const size_t j = size_t(ny) * w + size_t(nx);
-          if (!cr.valid[j]) continue;
-          lo = std::min(lo, current.visibility[j]);
-          hi = std::max(hi, current.visibility[j]);
-        }
+      const auto [lo, hi] = neighbourhood_range(current.visibility, w, h, x, y,
+                                                [&](size_t j) { return cr.valid[j] != 0; });
       // The point relative to the last origin, in the last view.
       const glm::dvec3 p = cr.origin + cr.position[i] - pr.origin;
       const glm::dvec3 prev_pos = glm::dvec3(prev_view * glm::dvec4(p, 1.0));
