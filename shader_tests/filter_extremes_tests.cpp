@@ -12,6 +12,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <glm/gtc/packing.hpp>
 #include <limits>
 #include <memory>
@@ -312,8 +313,8 @@ TEST_F(FilterExtremesTest, PcssDegenerateParametersStayInUnitInterval) {
 // ---- VSM / EVSM -----------------------------------------------------------------------------
 
 using VsmFn = ShaderFunction<float(glm::vec2, float, float, float, bool)>;
-using Evsm2Fn = ShaderFunction<float(glm::vec2, float, float, float, float, bool)>;
-using Evsm4Fn = ShaderFunction<float(glm::vec4, float, glm::vec2, float, float, bool)>;
+using Evsm2Fn = ShaderFunction<float(glm::vec2, float, float, float, float, bool, bool)>;
+using Evsm4Fn = ShaderFunction<float(glm::vec4, float, glm::vec2, float, float, bool, bool)>;
 
 // Zero variance (a single depth m: moments (m, m*m), the same float product the GPU forms):
 // a receiver at or in front of m is lit (exactly 1); one D behind it gets exactly the minimum
@@ -359,28 +360,73 @@ TEST_F(FilterExtremesTest, VsmZeroVarianceAndReceiverAtTheMean) {
 // difference between them still leaves the factor within 1e-3 of 1.
 TEST_F(FilterExtremesTest, EvsmReceiverAtTheStoredDepthIsLit) {
   Rng rng(508);
-  ShaderFunction<glm::vec4(float, glm::vec2, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
-  std::vector<std::tuple<float, glm::vec2, bool>> in;
+  std::vector<std::tuple<float, glm::vec2, bool, bool>> in;
   for (int i = 0; i < 1000; ++i) {
     const bool fp16 = i % 2 == 0;
     const double cmax = ref::evsm_max_exponent(fp16);
     in.emplace_back(i < 4 ? float(i % 2) : float(rng.next_unit()),
                     glm::vec2(float(cmax * rng.next_unit()), float(cmax * rng.next_unit())),
-                    i % 4 < 2);
+                    i % 4 < 2, fp16);
   }
   const auto m = moments.run(in);
-  std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> c2;
-  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> c4;
+  std::vector<std::tuple<glm::vec2, float, float, float, float, bool, bool>> c2;
+  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool, bool>> c4;
   for (size_t i = 0; i < in.size(); ++i) {
-    const auto& [d, c, rz] = in[i];
-    c2.emplace_back(glm::vec2(m[i]), d, c.x, 1e-5f, 0.0f, rz);
-    c4.emplace_back(m[i], d, c, 1e-5f, 0.0f, rz);
+    const auto& [d, c, rz, fp16] = in[i];
+    c2.emplace_back(glm::vec2(m[i]), d, c.x, 1e-5f, 0.0f, rz, fp16);
+    c4.emplace_back(m[i], d, c, 1e-5f, 0.0f, rz, fp16);
   }
   const std::vector<float> ones(in.size(), 1.0f);
   PENUMBRA_EXPECT_ALL_NEAR(ones, evsm2.run(c2), Tolerance::absolute(1e-3));
   PENUMBRA_EXPECT_ALL_NEAR(ones, evsm4.run(c4), Tolerance::absolute(1e-3));
+}
+
+// The moment format is part of every EVSM call. Exponents asked for beyond what 16-bit floats
+// hold (c = 40, 20, 10) are clamped to 5.54 when the moments are written and when they are read,
+// so a receiver at the stored depth of an fp16 map is lit. Told fp32 instead (what a caller who
+// forgets the format gets), the same depths' moments rounded to halves lose their variance to
+// the rounding and leave receivers in the dark (78 of these 90 come out lit).
+TEST_F(FilterExtremesTest, EvsmMomentsInAnFp16MapKeepAReceiverAtTheStoredDepthLit) {
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
+  Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
+  auto lit_counts = [&](bool fp16) {
+    std::vector<std::tuple<float, glm::vec2, bool, bool>> in;
+    for (float c : {40.0f, 20.0f, 10.0f})
+      for (bool rz : {true, false})
+        for (int k = 0; k < 15; ++k) in.emplace_back(float(k) / 14.0f, glm::vec2(c), rz, fp16);
+    const auto m = moments.run(in);
+    std::vector<std::tuple<glm::vec2, float, float, float, float, bool, bool>> c2;
+    std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool, bool>> c4;
+    for (size_t i = 0; i < in.size(); ++i) {
+      glm::vec4 half;  // stored in an RG16F / RGBA16F map
+      for (int k = 0; k < 4; ++k) half[k] = glm::unpackHalf1x16(glm::packHalf1x16(m[i][k]));
+      const auto& [d, c, rz, f16] = in[i];
+      c2.emplace_back(glm::vec2(half), d, c.x, 1e-5f, 0.0f, rz, f16);
+      c4.emplace_back(half, d, c, 1e-5f, 0.0f, rz, f16);
+    }
+    const auto got2 = evsm2.run(c2), got4 = evsm4.run(c4);
+    std::pair<size_t, size_t> lit{0, 0};
+    for (size_t i = 0; i < in.size(); ++i) {
+      lit.first += got2[i] >= 0.999f;
+      lit.second += got4[i] >= 0.999f;
+    }
+    return std::pair{lit, in.size()};
+  };
+  const auto [with_format, n] = lit_counts(true);
+  EXPECT_EQ(with_format.first, n) << "EVSM2, fp16 moments read as fp16";
+  EXPECT_EQ(with_format.second, n) << "EVSM4, fp16 moments read as fp16";
+  const auto [without_format, n32] = lit_counts(false);
+  EXPECT_LT(without_format.first, n32)
+      << "EVSM2: fp16 moments written and read as fp32: " << without_format.first << " of "
+      << n32 << " lit";
+  // (EVSM4 hides it here: its moments overflow fp16 to infinity, and non-finite moments count
+  // as lit.)
+  std::printf("fp16 moments told fp32: EVSM2 %zu of %zu lit, EVSM4 %zu\n", without_format.first,
+              n32, without_format.second);
 }
 
 // Depths 0 and 1 in both conventions (zero variance): lit at or in front of the stored depth,
@@ -422,10 +468,10 @@ TEST_F(FilterExtremesTest, EvsmExponentsClampPerMomentFormat) {
   PENUMBRA_EXPECT_ALL_NEAR(want, clamp_fn.run(in), Tolerance::exact());
 
   // Moments at the far plane (the warp's maximum) and the near plane (the negative warp's).
-  ShaderFunction<glm::vec4(float, glm::vec2, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
-  std::vector<std::tuple<float, glm::vec2, bool>> mc;
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  std::vector<std::tuple<float, glm::vec2, bool, bool>> mc;
   for (bool rz : {true, false})
-    for (float d : {0.0f, 1.0f}) mc.emplace_back(d, glm::vec2(5.54f), rz);
+    for (float d : {0.0f, 1.0f}) mc.emplace_back(d, glm::vec2(5.54f), rz, true);
   for (const auto& m : moments.run(mc)) {
     for (int k = 0; k < 4; ++k) {
       const float half = glm::unpackHalf1x16(glm::packHalf1x16(m[k]));
@@ -433,10 +479,10 @@ TEST_F(FilterExtremesTest, EvsmExponentsClampPerMomentFormat) {
     }
   }
   // Unclamped exponents are clamped to 42 inside: finite fp32 moments even for 1e6 or +Inf.
-  std::vector<std::tuple<float, glm::vec2, bool>> huge;
+  std::vector<std::tuple<float, glm::vec2, bool, bool>> huge;
   for (bool rz : {true, false})
     for (float d : {0.0f, 1.0f})
-      for (float c : {1e6f, kInf}) huge.emplace_back(d, glm::vec2(c), rz);
+      for (float c : {1e6f, kInf}) huge.emplace_back(d, glm::vec2(c), rz, false);
   for (const auto& m : moments.run(huge)) {
     for (int k = 0; k < 4; ++k) EXPECT_TRUE(std::isfinite(m[k])) << format_value(m);
     EXPECT_NEAR(std::max(m.y, m.w), std::exp(84.0), std::exp(84.0) * 1e-4);
@@ -450,17 +496,19 @@ TEST_F(FilterExtremesTest, VsmNonFiniteInputsAreLitNeverNan) {
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
   std::vector<std::tuple<glm::vec2, float, float, float, bool>> v;
-  std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> e2;
-  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> e4;
+  std::vector<std::tuple<glm::vec2, float, float, float, float, bool, bool>> e2;
+  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool, bool>> e4;
   for (bool rz : {true, false})
     for (float bad : {kNan, kInf, -kInf}) {
       v.emplace_back(glm::vec2(0.5f, 0.25f), bad, 1e-4f, 0.0f, rz);
       v.emplace_back(glm::vec2(bad, 0.25f), 0.2f, 1e-4f, 0.0f, rz);
       v.emplace_back(glm::vec2(0.5f, bad), 0.2f, 1e-4f, 0.0f, rz);
-      e2.emplace_back(glm::vec2(2.0f, 4.0f), bad, 5.0f, 1e-4f, 0.0f, rz);
-      e2.emplace_back(glm::vec2(bad, 4.0f), 0.2f, 5.0f, 1e-4f, 0.0f, rz);
-      e4.emplace_back(glm::vec4(2.0f, 4.0f, -2.0f, 4.0f), bad, glm::vec2(5.0f), 1e-4f, 0.0f, rz);
-      e4.emplace_back(glm::vec4(2.0f, 4.0f, bad, 4.0f), 0.2f, glm::vec2(5.0f), 1e-4f, 0.0f, rz);
+      e2.emplace_back(glm::vec2(2.0f, 4.0f), bad, 5.0f, 1e-4f, 0.0f, rz, rz);
+      e2.emplace_back(glm::vec2(bad, 4.0f), 0.2f, 5.0f, 1e-4f, 0.0f, rz, !rz);
+      e4.emplace_back(glm::vec4(2.0f, 4.0f, -2.0f, 4.0f), bad, glm::vec2(5.0f), 1e-4f, 0.0f, rz,
+                      rz);
+      e4.emplace_back(glm::vec4(2.0f, 4.0f, bad, 4.0f), 0.2f, glm::vec2(5.0f), 1e-4f, 0.0f, rz,
+                      !rz);
     }
   PENUMBRA_EXPECT_ALL_NEAR(std::vector<float>(v.size(), 1.0f), vsm.run(v), Tolerance::exact());
   PENUMBRA_EXPECT_ALL_NEAR(std::vector<float>(e2.size(), 1.0f), evsm2.run(e2), Tolerance::exact());

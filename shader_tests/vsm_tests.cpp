@@ -84,8 +84,8 @@ double warp_rel_error(double c) {
 }
 
 using VsmFn = ShaderFunction<float(glm::vec2, float, float, float, bool)>;
-using Evsm2Fn = ShaderFunction<float(glm::vec2, float, float, float, float, bool)>;
-using Evsm4Fn = ShaderFunction<float(glm::vec4, float, glm::vec2, float, float, bool)>;
+using Evsm2Fn = ShaderFunction<float(glm::vec2, float, float, float, float, bool, bool)>;
+using Evsm4Fn = ShaderFunction<float(glm::vec4, float, glm::vec2, float, float, bool, bool)>;
 
 class VsmTest : public GpuTest {};
 
@@ -107,14 +107,14 @@ TEST_F(VsmTest, MomentsAreDepthAndDepthSquared) {
 // argument rounds (2 |c| ULP): up to ~180 ULP for c = 42, twice that squared; 1e-4 relative.
 TEST_F(VsmTest, EvsmMomentsWarpTheDistanceFromTheLight) {
   Rng rng(402);
-  ShaderFunction<glm::vec4(float, glm::vec2, bool)> f("penumbra/vsm.glsl", "evsm_moments");
-  std::vector<std::tuple<float, glm::vec2, bool>> cases;
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> f("penumbra/vsm.glsl", "evsm_moments");
+  std::vector<std::tuple<float, glm::vec2, bool, bool>> cases;
   std::vector<glm::vec4> want;
   for (int i = 0; i < 4000; ++i) {
     const float d = i < 8 ? float(i % 2) : float(rng.next_unit());
     const glm::vec2 c(float(42.0 * rng.next_unit()), float(42.0 * rng.next_unit()));
     const bool reverse_z = i % 2 == 0;
-    cases.emplace_back(d, c, reverse_z);
+    cases.emplace_back(d, c, reverse_z, false);  // fp32 moments: exponents up to 42
     const double wp = ref::evsm_positive(d, c.x, reverse_z);
     const double wn = ref::evsm_negative(d, c.y, reverse_z);
     want.emplace_back(float(wp), float(wp * wp), float(wn), float(wn * wn));
@@ -186,8 +186,8 @@ TEST_F(VsmTest, EvsmMatchesChebyshevReferenceBothConventions) {
   Rng rng(405);
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
-  std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> c2;
-  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> c4;
+  std::vector<std::tuple<glm::vec2, float, float, float, float, bool, bool>> c2;
+  std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool, bool>> c4;
   std::vector<Interval> iv2, iv4;
   size_t partial = 0;
   for (int i = 0; i < 6000; ++i) {
@@ -210,8 +210,8 @@ TEST_F(VsmTest, EvsmMatchesChebyshevReferenceBothConventions) {
     const float t = float(rng.next_unit());
     const float mv = float(std::pow(10.0, -7.0 + 3.0 * rng.next_unit()));
     const float bleed = i % 3 == 1 ? 0.0f : float(0.4 * rng.next_unit());
-    c2.emplace_back(glm::vec2(mf.x, mf.y), t, c.x, mv, bleed, reverse_z);
-    c4.emplace_back(mf, t, c, mv, bleed, reverse_z);
+    c2.emplace_back(glm::vec2(mf.x, mf.y), t, c.x, mv, bleed, reverse_z, fp16);
+    c4.emplace_back(mf, t, c, mv, bleed, reverse_z, fp16);
 
     // The receiver's warps and their error ranges on the GPU.
     const double wp = ref::evsm_positive(t, c.x, reverse_z);
@@ -253,19 +253,19 @@ TEST_F(VsmTest, FactorsInUnitIntervalAndMonotonicInReceiverDepth) {
   VsmFn vsm("penumbra/vsm.glsl", "vsm_shadow");
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
-  ShaderFunction<glm::vec4(float, glm::vec2, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
   constexpr int kSteps = 32;
   for (bool reverse_z : {true, false}) {
     std::vector<std::tuple<glm::vec2, float, float, float, bool>> cv;
-    std::vector<std::tuple<glm::vec2, float, float, float, float, bool>> c2;
-    std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool>> c4;
+    std::vector<std::tuple<glm::vec2, float, float, float, float, bool, bool>> c2;
+    std::vector<std::tuple<glm::vec4, float, glm::vec2, float, float, bool, bool>> c4;
     for (int p = 0; p < 200; ++p) {
       // Two depths mixed, moments built by the GPU functions themselves.
       const float d0 = float(rng.next_unit()), d1 = float(rng.next_unit());
       const float w = float(rng.next_unit());
       const glm::vec2 c(float(5.54 * rng.next_unit()), float(5.54 * rng.next_unit()));
       const auto m = moments.run(
-          std::vector<std::tuple<float, glm::vec2, bool>>{{d0, c, reverse_z}, {d1, c, reverse_z}});
+          std::vector<std::tuple<float, glm::vec2, bool, bool>>{{d0, c, reverse_z, true}, {d1, c, reverse_z, true}});
       const glm::vec4 m4 = (1.0f - w) * m[0] + w * m[1];
       const glm::vec2 mv2((1.0f - w) * d0 + w * d1, (1.0f - w) * d0 * d0 + w * d1 * d1);
       const float mv = 1e-5f, bleed = p % 2 ? 0.0f : 0.2f;
@@ -273,8 +273,8 @@ TEST_F(VsmTest, FactorsInUnitIntervalAndMonotonicInReceiverDepth) {
         const float f = float(k) / (kSteps - 1);  // distance from the light
         const float depth = reverse_z ? 1.0f - f : f;
         cv.emplace_back(mv2, depth, mv, bleed, reverse_z);
-        c2.emplace_back(glm::vec2(m4), depth, c.x, mv, bleed, reverse_z);
-        c4.emplace_back(m4, depth, c, mv, bleed, reverse_z);
+        c2.emplace_back(glm::vec2(m4), depth, c.x, mv, bleed, reverse_z, true);
+        c4.emplace_back(m4, depth, c, mv, bleed, reverse_z, true);
       }
     }
     const std::vector<std::vector<float>> results = {vsm.run(cv), evsm2.run(c2), evsm4.run(c4)};
@@ -307,14 +307,14 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
     for (int y = 0; y < height; ++y)
       for (int x = 0; x < width; ++x) depths[size_t(y * width + x)] = x < edge ? blocker : receiver;
     ShaderFunction<glm::vec2(float)> vsm_moments("penumbra/vsm.glsl", "vsm_moments");
-    ShaderFunction<glm::vec4(float, glm::vec2, bool)> evsm_moments("penumbra/vsm.glsl",
+    ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> evsm_moments("penumbra/vsm.glsl",
                                                                    "evsm_moments");
     const glm::vec2 c(5.54f, 5.54f);  // fp16-safe exponents
     std::vector<std::tuple<float>> vin;
-    std::vector<std::tuple<float, glm::vec2, bool>> ein;
+    std::vector<std::tuple<float, glm::vec2, bool, bool>> ein;
     for (float d : depths) {
       vin.emplace_back(d);
-      ein.emplace_back(d, c, reverse_z);
+      ein.emplace_back(d, c, reverse_z, true);
     }
     std::vector<float> rg, rgba;
     for (const auto& m : vsm_moments.run(vin)) rg.insert(rg.end(), {m.x, m.y});
@@ -330,9 +330,9 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
 
     ShaderFunction<float(Sampler2D, glm::vec3, float, float, bool)> vsm("penumbra/vsm.glsl",
                                                                         "vsm_sample_shadow");
-    ShaderFunction<float(Sampler2D, glm::vec3, float, float, float, bool)> evsm2(
+    ShaderFunction<float(Sampler2D, glm::vec3, float, float, float, bool, bool)> evsm2(
         "penumbra/vsm.glsl", "evsm2_sample_shadow");
-    ShaderFunction<float(Sampler2D, glm::vec3, glm::vec2, float, float, bool)> evsm4(
+    ShaderFunction<float(Sampler2D, glm::vec3, glm::vec2, float, float, bool, bool)> evsm4(
         "penumbra/vsm.glsl", "evsm4_sample_shadow");
     vsm.bind(0, rg_tex);
     evsm2.bind(0, rg_tex);  // .xy of the EVSM4 moments is the EVSM2 pair: bind that too below
@@ -349,9 +349,9 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
         << "reverse_z " << reverse_z;
 
     // EVSM: the edge is 1/2 and the lit side 1; the dark side is tiny (min variance scaled).
-    std::vector<std::tuple<glm::vec3, glm::vec2, float, float, bool>> ec;
+    std::vector<std::tuple<glm::vec3, glm::vec2, float, float, bool, bool>> ec;
     for (float u : {u_edge, u_lit, u_dark})
-      ec.emplace_back(glm::vec3(u, 0.5f, receiver), c, mv, 0.0f, reverse_z);
+      ec.emplace_back(glm::vec3(u, 0.5f, receiver), c, mv, 0.0f, reverse_z, true);
     const auto got4 = evsm4.run(ec);
     EXPECT_NEAR(got4[0], 0.5f, 1e-4) << "reverse_z " << reverse_z;
     EXPECT_NEAR(got4[1], 1.0f, 1e-4);
@@ -361,9 +361,9 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
     for (size_t i = 0; i < rgba.size(); i += 4) rg2.insert(rg2.end(), {rgba[i], rgba[i + 1]});
     desc.channels = 2;
     evsm2.bind(0, make_float_texture(desc, rg2));
-    std::vector<std::tuple<glm::vec3, float, float, float, bool>> e2;
+    std::vector<std::tuple<glm::vec3, float, float, float, bool, bool>> e2;
     for (float u : {u_edge, u_lit, u_dark})
-      e2.emplace_back(glm::vec3(u, 0.5f, receiver), c.x, mv, 0.0f, reverse_z);
+      e2.emplace_back(glm::vec3(u, 0.5f, receiver), c.x, mv, 0.0f, reverse_z, true);
     const auto got2 = evsm2.run(e2);
     EXPECT_NEAR(got2[0], 0.5f, 1e-4);
     EXPECT_NEAR(got2[1], 1.0f, 1e-4);

@@ -14,9 +14,10 @@
 //   evsm_moments and to the evaluation.
 // - Exponents: the positive warp reaches exp(c) and its second moment exp(2 c); exp(2 c) must fit
 //   the moment format: c <= ln(65504) / 2 = 5.545 for fp16 (evsm_max_exponent(true) = 5.54) and
-//   c <= ln(FLT_MAX) / 2 = 44.36 for fp32 (42, leaving headroom for filtering sums). Clamp the
-//   exponents with evsm_clamp_exponents for the map's format; the functions here always clamp to
-//   [0, 42] so fp32 arithmetic never overflows. An exponent of 0 makes the warp constant (lit).
+//   c <= ln(FLT_MAX) / 2 = 44.36 for fp32 (42, leaving headroom for filtering sums). The moment
+//   format is part of every EVSM call (`fp16`: the map stores 16-bit floats): the exponents are
+//   clamped for it (evsm_clamp_exponents), the same way when the moments are written and when
+//   they are read. An exponent of 0 makes the warp constant (lit).
 // - min_variance is in depth units squared; EVSM scales it into warped space by the warp's
 //   slope at the receiver: (dw/df)^2 = (2 c w)^2 (as a standard deviation, so it never
 //   overflows).
@@ -110,18 +111,18 @@ vec2 evsm_clamp_exponents(vec2 exponents, bool fp16) {
 
 // Returns the warped depth (exp(c+ x), -exp(-c- x)), x = 2 f - 1 in [-1, 1], f the distance
 // from the light (depth, or 1 - depth under reverse-Z, depth clamped to [0, 1]), exponents
-// (c+, c-) clamped to [0, 42].
-vec2 evsm_warp(float depth, vec2 exponents, bool reverse_z) {
+// (c+, c-) clamped for the moment format (evsm_clamp_exponents(exponents, fp16)).
+vec2 evsm_warp(float depth, vec2 exponents, bool reverse_z, bool fp16) {
   float d = clamp(depth, 0.0, 1.0);
   float x = 2.0 * (reverse_z ? 1.0 - d : d) - 1.0;
-  vec2 c = evsm_clamp_exponents(exponents, false);
+  vec2 c = evsm_clamp_exponents(exponents, fp16);
   return vec2(exp(c.x * x), -exp(-c.y * x));
 }
 
-// Returns the EVSM4 moments to store for a depth: (w+, w+^2, w-, w-^2) of evsm_warp. EVSM2
-// stores the first two.
-vec4 evsm_moments(float depth, vec2 exponents, bool reverse_z) {
-  vec2 w = evsm_warp(depth, exponents, reverse_z);
+// Returns the EVSM4 moments to store for a depth in a map of the given format: (w+, w+^2, w-,
+// w-^2) of evsm_warp. EVSM2 stores the first two.
+vec4 evsm_moments(float depth, vec2 exponents, bool reverse_z, bool fp16) {
+  vec2 w = evsm_warp(depth, exponents, reverse_z, fp16);
   return vec4(w.x, w.x * w.x, w.y, w.y * w.y);
 }
 
@@ -133,12 +134,13 @@ float evsm_warped_min_sigma(float min_variance, float exponent, float w) {
 }
 
 // Returns the EVSM2 shadow factor: the Chebyshev bound of the positive warp (exponent c+,
-// moments (E[w+], E[w+^2])) at the receiver's warped depth, then light-bleed reduction.
+// moments (E[w+], E[w+^2])) at the receiver's warped depth, then light-bleed reduction; the
+// exponent is clamped for the moment format.
 float evsm2_shadow(vec2 moments, float receiver_depth, float exponent, float min_variance,
-                   float bleed_reduction, bool reverse_z) {
+                   float bleed_reduction, bool reverse_z, bool fp16) {
   if (!penumbra_is_finite(receiver_depth)) return 1.0;
-  float c = evsm_clamp_exponents(vec2(exponent, 0.0), false).x;
-  float w = evsm_warp(receiver_depth, vec2(c, 0.0), reverse_z).x;
+  float c = evsm_clamp_exponents(vec2(exponent, 0.0), fp16).x;
+  float w = evsm_warp(receiver_depth, vec2(c, 0.0), reverse_z, fp16).x;
   float p = chebyshev_bound_min_sigma(moments, w, evsm_warped_min_sigma(min_variance, c, w));
   return vsm_saturate_or_lit(vsm_reduce_light_bleeding(p, bleed_reduction));
 }
@@ -146,12 +148,12 @@ float evsm2_shadow(vec2 moments, float receiver_depth, float exponent, float min
 // Returns the EVSM4 shadow factor: the smaller of the Chebyshev bounds of the positive warp
 // (moments.xy) and the negative warp (moments.zw), then light-bleed reduction.
 float evsm4_shadow(vec4 moments, float receiver_depth, vec2 exponents, float min_variance,
-                   float bleed_reduction, bool reverse_z) {
+                   float bleed_reduction, bool reverse_z, bool fp16) {
   bool finite = penumbra_is_finite(moments.x) && penumbra_is_finite(moments.y) && penumbra_is_finite(moments.z) &&
                 penumbra_is_finite(moments.w);
   if (!finite || !penumbra_is_finite(receiver_depth)) return 1.0;
-  vec2 c = evsm_clamp_exponents(exponents, false);
-  vec2 w = evsm_warp(receiver_depth, c, reverse_z);
+  vec2 c = evsm_clamp_exponents(exponents, fp16);
+  vec2 w = evsm_warp(receiver_depth, c, reverse_z, fp16);
   float positive =
       chebyshev_bound_min_sigma(moments.xy, w.x, evsm_warped_min_sigma(min_variance, c.x, w.x));
   float negative =
@@ -174,21 +176,23 @@ float vsm_sample_shadow(sampler2D moment_map, vec3 coord, float min_variance, fl
   return vsm_shadow(moments, coord.z, min_variance, bleed_reduction, reverse_z);
 }
 
-// Returns the EVSM2 shadow factor at coord from a moment map (RG: E[w+], E[w+^2]).
+// Returns the EVSM2 shadow factor at coord from a moment map (RG: E[w+], E[w+^2]) of the given
+// format.
 float evsm2_sample_shadow(sampler2D moment_map, vec3 coord, float exponent, float min_variance,
-                          float bleed_reduction, bool reverse_z) {
+                          float bleed_reduction, bool reverse_z, bool fp16) {
   if (!vsm_coord_in_map(coord)) return 1.0;
   vec2 moments = texture(moment_map, coord.xy).xy;
-  return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z);
+  return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
 }
 
 // Returns the EVSM4 shadow factor at coord from a moment map (RGBA: E[w+], E[w+^2], E[w-],
 // E[w-^2]).
 float evsm4_sample_shadow(sampler2D moment_map, vec3 coord, vec2 exponents, float min_variance,
-                          float bleed_reduction, bool reverse_z) {
+                          float bleed_reduction, bool reverse_z, bool fp16) {
   if (!vsm_coord_in_map(coord)) return 1.0;
   vec4 moments = texture(moment_map, coord.xy);
-  return evsm4_shadow(moments, coord.z, exponents, min_variance, bleed_reduction, reverse_z);
+  return evsm4_shadow(moments, coord.z, exponents, min_variance, bleed_reduction, reverse_z,
+                      fp16);
 }
 
 #endif  // PENUMBRA_VSM_GLSL
