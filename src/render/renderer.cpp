@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
-#include <optional>
 #include <glm/gtc/packing.hpp>
+#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/render/renderer.hpp>

@@ -45,7 +45,7 @@ ForwardPass::ForwardPass(FrameResources& r) {
   gpu::DescriptorWriter w;
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
   // With shadows.temporal the accumulated visibility (temporal-aux .r for the sun).
-  const bool temporal = req.temporal;
+  const bool temporal = temporal_ = req.temporal;
   if (req.sun_shadows)
     w.combined_image(1, (temporal ? r.temporal_aux : r.info).view(), r.nearest.handle());
   if (r.contact_mask) w.combined_image(2, r.contact_mask->view(), r.nearest.handle());
@@ -56,6 +56,9 @@ ForwardPass::ForwardPass(FrameResources& r) {
 }
 
 PassIo ForwardPass::io() const {
+  if (temporal_)
+    return {{"frame", "depth", "temporal-aux", "contact-mask", "temporal-local"},
+            {"hdr", "visibility"}};
   return {{"frame", "depth", "shadow-info", "contact-mask", "local-shadow"}, {"hdr", "visibility"}};
 }
 

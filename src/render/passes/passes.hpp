@@ -209,6 +209,7 @@ class ForwardPass final : public Pass {
   std::unique_ptr<gpu::PipelineLayout> layout_;
   std::unique_ptr<gpu::GraphicsPipeline> opaque_, masked_;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
+  bool temporal_ = false;  // reads the accumulated visibility (shadows.temporal)
 };
 
 // Exposure and tonemapping, or one of the debug views, into the output image.
