@@ -1,4 +1,5 @@
-// Procedural alpha masks of masked materials (fences, leaves): pure functions of the surface uv.
+// Alpha masks of masked materials (fences, leaves): procedural patterns (pure functions of the
+// surface uv) and mask textures (the texture comes in as an argument).
 #ifndef PENUMBRA_MATERIAL_GLSL
 #define PENUMBRA_MATERIAL_GLSL
 
@@ -20,6 +21,13 @@ float procedural_mask(vec2 uv, int pattern, vec2 scale) {
 // True when the fragment is cut out by the alpha test.
 bool alpha_test_discards(vec2 uv, int pattern, vec2 scale, float cutoff) {
   return procedural_mask(uv, pattern, scale) < cutoff;
+}
+
+// Coverage in [0, 1] of a mask texture (its first channel) at uv scaled by `scale`: level 0
+// through the sampler given (the renderer's: linear, repeat), so no derivatives are needed and
+// the test may run in non-uniform control flow. scene::texture_mask is its C++ twin.
+float texture_mask(sampler2D mask, vec2 uv, vec2 scale) {
+  return textureLod(mask, uv * scale, 0.0).r;
 }
 
 #endif

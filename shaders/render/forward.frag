@@ -4,7 +4,7 @@
 #include "penumbra/common.glsl"
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
-#include "penumbra/material.glsl"
+#include "render/alpha_mask.glsl"
 
 #ifndef PENUMBRA_SUN_SHADOWS
 #define PENUMBRA_SUN_SHADOWS 0
@@ -64,7 +64,7 @@ float range_falloff(float dist, float range) {
 
 
 void main() {
-  if (alpha_test_discards(in_uv, int(draw.mask.x), draw.mask.zw, draw.mask.y)) discard;
+  if (draw_alpha_discards(draw, in_uv)) discard;
   vec3 n = normalize(in_normal);
   if (!gl_FrontFacing) n = -n;
   vec3 albedo = draw.albedo.rgb;

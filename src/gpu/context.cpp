@@ -277,6 +277,9 @@ Context::Context(const ContextOptions& options) {
     features.features.shaderFloat64 = supported.shaderFloat64;
     features.features.fragmentStoresAndAtomics = supported.fragmentStoresAndAtomics;
     features.features.imageCubeArray = supported.imageCubeArray;
+    // Mask textures are an array indexed by a push constant (shaders/render/alpha_mask.glsl).
+    features.features.shaderSampledImageArrayDynamicIndexing =
+        supported.shaderSampledImageArrayDynamicIndexing;
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

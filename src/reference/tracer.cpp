@@ -42,9 +42,7 @@ struct Surface {
   std::vector<uint32_t> indices;
   bool masked = false;
   std::vector<glm::vec2> uv;
-  scene::MaskPattern pattern = scene::MaskPattern::none;
-  glm::vec2 scale{1.0f};
-  float cutoff = 0.5f;
+  scene::Material material;  // its mask: the pattern or the texture, the scale and the cutoff
 };
 
 // A shadow ray's context: the triangle it starts on, which it ignores (terminator = smooth).
@@ -70,7 +68,7 @@ void occlusion_filter(const RTCFilterFunctionNArguments* args) {
     const float u = RTCHitN_u(args->hit, args->N, i), v = RTCHitN_v(args->hit, args->N, i);
     const glm::vec2 uv = (1.0f - u - v) * g->uv[g->indices[3 * prim]] +
                          u * g->uv[g->indices[3 * prim + 1]] + v * g->uv[g->indices[3 * prim + 2]];
-    if (scene::alpha_test_discards(uv, g->pattern, g->scale, g->cutoff)) args->valid[i] = 0;
+    if (scene::alpha_test_discards(g->material, uv)) args->valid[i] = 0;
   }
 }
 
@@ -299,13 +297,16 @@ Tracer::Tracer(const scene::Scene& s, glm::dvec3 origin) : impl_(std::make_uniqu
       surface->masked = true;
       surface->uv.reserve(mesh.vertices.size());
       for (const auto& v : mesh.vertices) surface->uv.push_back(v.uv);
-      surface->pattern = mat.mask;
-      surface->scale = mat.mask_scale;
-      surface->cutoff = mat.alpha_cutoff;
+      surface->material = mat;
       hash.bytes(surface->uv.data(), surface->uv.size() * sizeof(glm::vec2));
-      hash.pod(int(surface->pattern));
-      hash.pod(surface->scale);
-      hash.pod(surface->cutoff);
+      hash.pod(int(mat.mask));
+      hash.pod(mat.mask_scale);
+      hash.pod(mat.alpha_cutoff);
+      if (mat.mask_image) {
+        hash.pod(mat.mask_image->width);
+        hash.pod(mat.mask_image->height);
+        hash.bytes(mat.mask_image->texels.data(), mat.mask_image->texels.size());
+      }
     }
     surface->position = std::move(positions);
     surface->indices = std::move(indices);

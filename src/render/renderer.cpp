@@ -166,6 +166,7 @@ struct Renderer::Impl {
     res.shadow_compare = gpu::Sampler(ctx, cmp);
     res.raw_depth = gpu::Sampler(ctx, gpu::SamplerDesc{});
     res.frame_ubo = gpu::Buffer(ctx, sizeof(FrameGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    create_mask_textures(res);
 
     auto prepass = std::make_unique<PrepassPass>(res);
     shadow_maps = std::make_unique<ShadowMapPass>(res);

@@ -93,7 +93,37 @@ Scene::Requirements Scene::requirements() const {
       r.masked_materials = true;
     }
   }
+  r.mask_textures = std::uint32_t(mask_images().size());
   return r;
+}
+
+std::vector<std::shared_ptr<const MaskImage>> Scene::mask_images() const {
+  std::vector<std::shared_ptr<const MaskImage>> images;
+  for (std::uint32_t m = 0; m < materials.size(); ++m) {
+    const Material& mat = materials[m];
+    if (mat.alpha != AlphaMode::masked || mat.mask != MaskPattern::texture || !mat.mask_image)
+      continue;
+    const bool used = std::any_of(instances.begin(), instances.end(),
+                                  [m](const Instance& i) { return i.material == m; });
+    const bool listed = std::any_of(images.begin(), images.end(), [&](const auto& image) {
+      return image == mat.mask_image || image->source == mat.mask_image->source;
+    });
+    if (used && !listed) images.push_back(mat.mask_image);
+  }
+  return images;
+}
+
+int Scene::mask_image_index(std::uint32_t material) const {
+  if (material >= materials.size() || !materials[material].mask_image ||
+      materials[material].mask != MaskPattern::texture)
+    return -1;
+  const auto images = mask_images();
+  for (size_t i = 0; i < images.size(); ++i) {
+    if (images[i] == materials[material].mask_image ||
+        images[i]->source == materials[material].mask_image->source)
+      return int(i);
+  }
+  return -1;
 }
 
 int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube) {

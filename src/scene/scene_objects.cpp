@@ -42,6 +42,11 @@ Material read_material(const Reader& r) {
       r.fail_key("mask_texture", "texture file '" + given + "' not found (resolved to " +
                                      m.mask_texture.string() + ")");
     }
+    try {
+      m.mask_image = std::make_shared<const MaskImage>(load_mask_image(m.mask_texture));
+    } catch (const Error& e) {
+      r.fail_key("mask_texture", "'" + given + "': " + e.what());
+    }
   } else if (mask == MaskPattern::texture) {
     r.fail_key("mask", "mask = 'texture' needs a mask_texture file");
   }

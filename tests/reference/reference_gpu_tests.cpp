@@ -80,6 +80,61 @@ TEST_F(ReferenceGpu, TheTracersMaskIsTheShadersMask) {
   EXPECT_GT(differ, 50u);
 }
 
+// The renderer samples mask textures as scene::texture_mask does (bilinear between texel centres,
+// repeating): the shipped textures at 30,000 uvs over several repeats. The tolerance is the
+// filtering precision Vulkan allows: each bilinear weight may be rounded to subTexelPrecisionBits
+// (8 on lavapipe and on NVIDIA), so a coverage may differ by up to 2^-bits per axis.
+TEST_F(ReferenceGpu, TheTracersTextureMaskIsTheShadersTextureMask) {
+  const fs::path dir = PENUMBRA_SCENE_DIR "/textures";
+  const float tolerance =
+      2.0f / float(1u << std::min(ctx().info().limits.subTexelPrecisionBits, 16u));
+  for (const char* name : {"lattice.png", "picket.png"}) {
+    SCOPED_TRACE(name);
+    const scene::MaskImage image = scene::load_mask_image(dir / name);
+    testing::FloatTextureDesc desc;
+    desc.width = image.width;
+    desc.height = image.height;
+    desc.sampler.filter = VK_FILTER_LINEAR;
+    desc.sampler.address = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+    std::vector<float> texels;
+    for (uint8_t t : image.texels) texels.push_back(float(t) / 255.0f);
+    testing::ShaderFunction<float(testing::Sampler2D, glm::vec2, glm::vec2)> mask(
+        "penumbra/material.glsl", "texture_mask");
+    mask.bind(0, testing::make_float_texture(desc, texels));
+    testing::Rng rng(0x7E47);
+    const std::vector<glm::vec2> scales{{1, 1}, {16, 1}, {16, 4}, {3.3f, 7.1f}};
+    std::vector<std::tuple<glm::vec2, glm::vec2>> cases;
+    for (int i = 0; i < 30000; ++i) {
+      const glm::vec2 uv(testing::detail::uniform_scalar(rng, -1.0f, 2.0f),
+                         testing::detail::uniform_scalar(rng, -1.0f, 2.0f));
+      cases.emplace_back(uv, scales[size_t(i) % scales.size()]);
+    }
+    const std::vector<float> got = mask.run(cases);
+    size_t partial = 0;
+    float worst = 0.0f;
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const auto [uv, scale] = cases[i];
+      const float want = scene::texture_mask(image, uv, scale);
+      partial += want > 0.05f && want < 0.95f;
+      worst = std::max(worst, std::abs(got[i] - want));
+      ASSERT_NEAR(got[i], want, tolerance)
+          << "uv (" << uv.x << ", " << uv.y << ") scale (" << scale.x << ", " << scale.y << ")";
+    }
+    EXPECT_GT(partial, 1000u);  // the edges, where the filter matters, are exercised
+    // The comparison has power: nearest sampling (no filter) disagrees beyond the tolerance.
+    size_t differ = 0;
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const auto [uv, scale] = cases[i];
+      const glm::vec2 p = uv * scale;
+      const auto x = uint32_t((p.x - std::floor(p.x)) * float(image.width)) % image.width;
+      const auto y = uint32_t((p.y - std::floor(p.y)) * float(image.height)) % image.height;
+      differ += std::abs(float(image.texels[size_t(y) * image.width + x]) / 255.0f - got[i]) >
+                tolerance;
+    }
+    EXPECT_GT(differ, 500u) << "worst |GPU - C++| " << worst;
+  }
+}
+
 // ---- geometry agreement -------------------------------------------------------------------------
 constexpr const char* kHardSunScene = R"(
 name = "hard-sun"
@@ -146,36 +201,95 @@ std::vector<uint8_t> interior(const LightMeasurement& l, uint32_t w, uint32_t h,
   return out;
 }
 
-TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
-  const scene::Scene s = scene::parse_scene(kHardSunScene, "hard-sun.toml", ".");
+// Interior receivers (away from shadow edges) of a hard sun where the rasterizer and the
+// reference agree on lit or shadowed: all of them, and the shadowed ones alone.
+struct Agreement {
+  size_t n = 0, agree = 0, shadowed = 0, shadowed_agree = 0;
+  std::string metrics;
+  // Per pixel: interior, and lit (visibility >= 0.5) in the reference and on the GPU.
+  std::vector<uint8_t> inner, reference_lit, gpu_lit;
+};
+Agreement hard_sun_agreement(gpu::Context& c, const scene::Scene& s) {
   render::RendererOptions ro;
   ro.visibility_output = true;
-  render::Renderer r(ctx(), s, ro);
+  render::Renderer r(c, s, ro);
   r.render(0);
   MeasureOptions mo;
   const FrameMeasurement m = measure_frame(r, mo);
-  ASSERT_EQ(m.lights.size(), 1u);
-  const LightMeasurement& sun = m.lights[0];
+  EXPECT_EQ(m.lights.size(), 1u);
+  const LightMeasurement& sun = m.lights.at(0);
   EXPECT_TRUE(sun.area.hard());
   const auto inner = interior(sun, m.width, m.height, 2);
-  size_t n = 0, agree = 0, shadowed = 0, shadowed_agree = 0;
+  Agreement a;
+  a.metrics = sun.metrics.to_line();
+  a.inner = inner;
   for (size_t i = 0; i < inner.size(); ++i) {
+    a.reference_lit.push_back(sun.reference.value[i] >= 0.5f);
+    a.gpu_lit.push_back(sun.gpu[i] >= 0.5f);
     if (!inner[i]) continue;
-    ++n;
+    ++a.n;
     const bool same = (sun.gpu[i] >= 0.5f) == (sun.reference.value[i] >= 0.5f);
-    agree += same;
+    a.agree += same;
     if (sun.reference.value[i] < 0.5f) {
-      ++shadowed;
-      shadowed_agree += same;
+      ++a.shadowed;
+      a.shadowed_agree += same;
     }
   }
-  ASSERT_GT(n, 50000u);
-  ASSERT_GT(shadowed, 800u);  // there are shadows to agree on
-  EXPECT_GE(double(agree) / double(n), 0.995)
-      << agree << " of " << n << " interior receivers agree; metrics: " << sun.metrics.to_line();
+  return a;
+}
+
+TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
+  const Agreement a =
+      hard_sun_agreement(ctx(), scene::parse_scene(kHardSunScene, "hard-sun.toml", "."));
+  ASSERT_GT(a.n, 50000u);
+  ASSERT_GT(a.shadowed, 800u);  // there are shadows to agree on
+  EXPECT_GE(double(a.agree) / double(a.n), 0.995)
+      << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
   // The lit majority cannot hide a lost shadow: the umbra agrees on its own.
-  EXPECT_GE(double(shadowed_agree) / double(shadowed), 0.995)
-      << shadowed_agree << " of " << shadowed << " interior shadowed receivers agree";
+  EXPECT_GE(double(a.shadowed_agree) / double(a.shadowed), 0.995)
+      << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
+}
+
+// A fence masked by a texture (the grazing scene's lattice in 1.5 m tiles), leaning between the
+// sun and the ground: the rasterizer's caster pass and the reference's occlusion filter cut the
+// same holes. The holes are the receivers the same fence, opaque, shadows in the reference and
+// the masked one does not: the rasterizer must light them too.
+TEST_F(ReferenceGpu, HardSunThroughATextureMaskedFenceAgreesWithTheRasterizer) {
+  const std::string fence = std::string(kHardSunScene) + R"(
+[[material]]
+name = "lattice"
+mask_texture = ")" + PENUMBRA_SCENE_DIR "/textures/lattice.png" + R"("
+mask_scale = [2, 1]
+[[object]]
+mesh = "box"
+size = [3, 1.5, 0.02]
+position = [0.6, 0.9, 0.4]
+rotation = [-35, 160, 0]
+material = "lattice"
+)";
+  const scene::Scene masked = scene::parse_scene(fence, "fence.toml", ".");
+  ASSERT_EQ(masked.requirements().mask_textures, 1u);
+  const Agreement a = hard_sun_agreement(ctx(), masked);
+  ASSERT_GT(a.n, 30000u);
+  EXPECT_GE(double(a.agree) / double(a.n), 0.995)
+      << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
+  EXPECT_GE(double(a.shadowed_agree) / double(a.shadowed), 0.99)
+      << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
+  scene::Scene opaque = masked;
+  for (auto& m : opaque.materials) {
+    m.alpha = scene::AlphaMode::opaque;
+    m.mask = scene::MaskPattern::none;
+  }
+  const Agreement o = hard_sun_agreement(ctx(), opaque);
+  size_t holes = 0, holes_lit = 0;
+  for (size_t i = 0; i < a.inner.size(); ++i) {
+    if (!a.inner[i] || o.reference_lit[i] || !a.reference_lit[i]) continue;
+    ++holes;
+    holes_lit += a.gpu_lit[i];
+  }
+  ASSERT_GT(holes, 2000u) << "the fence's holes in the reference";
+  EXPECT_GE(double(holes_lit) / double(holes), 0.99)
+      << holes_lit << " of " << holes << " receivers seen through the holes are lit on the GPU";
 }
 
 // Frame 0 of `s` at width x height against the reference (64 samples, no cache).

@@ -382,6 +382,75 @@ mask = "circles"
   EXPECT_FALSE(scene.requirements().masked_materials);  // no instance uses them
 }
 
+TEST(SceneFile, MaskTexturesAreReadAndSharedAndCountedWhenUsed) {
+  const std::string text = R"(
+[[material]]
+name = "a"
+mask_texture = "mask_checker.png"
+[[material]]
+name = "b"
+mask_texture = "./mask_checker.png"
+mask_scale = [4, 4]
+[[material]]
+name = "unused"
+mask_texture = "mask_checker.png"
+[[object]]
+mesh = "box"
+material = "a"
+[[object]]
+mesh = "plane"
+material = "b"
+)";
+  const Scene scene = parse(text);
+  ASSERT_TRUE(scene.materials[0].mask_image);
+  const MaskImage& image = *scene.materials[0].mask_image;
+  EXPECT_EQ(image.width, 8u);
+  EXPECT_EQ(image.height, 8u);
+  ASSERT_EQ(image.texels.size(), 64u);
+  // One texture file, one entry, whichever spelling of its path.
+  EXPECT_EQ(scene.requirements().mask_textures, 1u);
+  EXPECT_EQ(scene.mask_images().size(), 1u);
+  EXPECT_EQ(scene.mask_image_index(0), 0);
+  EXPECT_EQ(scene.mask_image_index(1), 0);
+  EXPECT_TRUE(scene.requirements().masked_materials);
+}
+
+TEST(SceneFile, AMaskTextureThatIsNotAPngIsAnErrorNamingKeyAndFile) {
+  const std::string text = "[[material]]\nname = \"m\"\nmask_texture = \"quad.obj\"\n" + kBox;
+  const std::string e = error_of(text);
+  EXPECT_THAT(e, HasSubstr(at(text, "mask_texture")));
+  EXPECT_THAT(e, HasSubstr("'quad.obj'"));
+  EXPECT_THAT(e, HasSubstr("not a PNG"));
+  // A directory is not a texture either.
+  const std::string dir = "[[material]]\nname = \"m\"\nmask_texture = \".\"\n" + kBox;
+  EXPECT_THAT(error_of(dir), HasSubstr(at(dir, "mask_texture")));
+}
+
+TEST(SceneFile, TextureMaskIsBilinearBetweenTexelCentresAndRepeats) {
+  MaskImage image;
+  image.width = 2;
+  image.height = 1;
+  image.texels = {0, 255};
+  // At texel centres: the texels.
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.25f, 0.5f}, {1, 1}), 0.0f);
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.75f, 0.5f}, {1, 1}), 1.0f);
+  // Halfway between them, and across the wrap (u = 0 lies between texel 1 and texel 0).
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.5f, 0.5f}, {1, 1}), 0.5f);
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.0f, 0.5f}, {1, 1}), 0.5f);
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.125f, 0.5f}, {1, 1}), 0.25f);
+  EXPECT_FLOAT_EQ(texture_mask(image, {-0.875f, 0.3f}, {1, 1}), 0.25f);  // repeats
+  EXPECT_FLOAT_EQ(texture_mask(image, {0.125f / 4.0f, 0.5f}, {4, 1}), 0.25f);  // scaled
+  EXPECT_FLOAT_EQ(texture_mask(image, {NAN, 0.5f}, {1, 1}), 1.0f);
+  // A material: the alpha test cuts out below the cutoff.
+  Material m;
+  m.alpha = AlphaMode::masked;
+  m.mask = MaskPattern::texture;
+  m.mask_image = std::make_shared<const MaskImage>(image);
+  m.alpha_cutoff = 0.5f;
+  EXPECT_TRUE(alpha_test_discards(m, {0.3f, 0.5f}));
+  EXPECT_FALSE(alpha_test_discards(m, {0.6f, 0.5f}));
+}
+
 TEST(SceneFile, ScatterIsDeterministicInsideItsShellAndWithoutOverlaps) {
   const std::string text = R"(
 [[object]]

@@ -32,6 +32,7 @@ struct Draw {
   DrawPush push{};
   bool masked = false;
   bool casts = true;
+  std::uint32_t mask_texture = 0;  // pushed in index.w: its slot in Scene::mask_images()
 };
 
 struct PackedFrame {

@@ -8,6 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <glm/glm.hpp>
+#include <memory>
 #include <optional>
 #include <penumbra/scene/mesh.hpp>
 #include <penumbra/shadow/cascades.hpp>
@@ -20,17 +21,35 @@ namespace penumbra::scene {
 enum class AlphaMode { opaque, masked };
 
 // The alpha mask of a masked material, evaluated at uv * mask_scale (see docs/scenes.md):
-// texture: the red channel of mask_texture; stripes: bars across u (half of each period is cut
-// out); checker: a checkerboard (every other cell cut out); circles: a grid of round holes.
+// texture: the coverage channel of mask_texture (MaskImage); stripes: bars across u (half of
+// each period is cut out); checker: a checkerboard (every other cell cut out); circles: a grid of
+// round holes.
 enum class MaskPattern { none, texture, stripes, checker, circles };
 
 // The masks of shaders/penumbra/material.glsl, operation for operation in float (the ray-traced
 // reference evaluates masked occluders with these; a GPU test checks they agree): coverage in
-// [0, 1] of `pattern` at uv * scale. MaskPattern::texture gives 1 here as in the shaders, which
-// do not sample mask textures yet.
+// [0, 1] of `pattern` at uv * scale. MaskPattern::texture gives 1 here, as procedural_mask does
+// in the shaders: texture masks go through texture_mask.
 float procedural_mask(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale);
 // True where the alpha test cuts the surface out (coverage < cutoff).
 bool alpha_test_discards(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale, float cutoff);
+
+// A mask texture: one 8-bit coverage channel of a PNG (its alpha where the PNG has one, else its
+// first channel), rows top to bottom: uv (0, 0) is the image's top-left corner.
+struct MaskImage {
+  std::filesystem::path source;
+  std::uint32_t width = 0, height = 0;
+  std::vector<std::uint8_t> texels;  // row-major, width x height
+};
+inline constexpr std::uint32_t kMaxMaskImageSize = 8192;        // texels a side
+inline constexpr std::uintmax_t kMaxMaskFileBytes = 64u << 20;  // a PNG larger is refused
+// Reads a PNG mask (a regular file of at most kMaxMaskFileBytes, at most kMaxMaskImageSize texels
+// a side). Throws penumbra::Error naming the file and what is wrong with it.
+MaskImage load_mask_image(const std::filesystem::path& file);
+// The coverage of `image` at uv * scale as the renderer samples it (material.glsl's texture_mask
+// through a linear, repeating sampler at level 0): bilinear between texel centres, wrapping at
+// the edges. Non-finite uv gives 1 (opaque).
+float texture_mask(const MaskImage& image, glm::vec2 uv, glm::vec2 scale);
 
 struct Material {
   std::string name;
@@ -38,9 +57,15 @@ struct Material {
   AlphaMode alpha = AlphaMode::opaque;
   MaskPattern mask = MaskPattern::none;  // none <=> alpha == opaque
   std::filesystem::path mask_texture;    // absolute; set only for MaskPattern::texture
+  std::shared_ptr<const MaskImage> mask_image;  // mask_texture's texels (MaskPattern::texture)
   glm::vec2 mask_scale{1.0f};            // repetitions of the pattern over uv [0, 1]
   float alpha_cutoff = 0.5f;             // in (0, 1): mask < cutoff is cut out
 };
+
+// A material's coverage at uv (its texture or its procedural pattern; 1 when opaque), and whether
+// the alpha test cuts it out there.
+float mask_coverage(const Material& material, glm::vec2 uv);
+bool alpha_test_discards(const Material& material, glm::vec2 uv);
 
 struct Instance {
   std::uint32_t mesh = 0;      // index into Scene::meshes
@@ -197,9 +222,14 @@ struct Scene {
     std::uint32_t point_shadow_cubes = 0;  // points with shadows = true
     bool contact_pass = false;             // contact.step_count > 0 and the scene has a light
     bool masked_materials = false;         // an instance uses a masked material
+    std::uint32_t mask_textures = 0;       // distinct mask textures those materials sample
     bool temporal = false;                 // shadows.temporal and a shadowed light
   };
   Requirements requirements() const;
+  // The distinct mask textures of the materials instances use, in material order (the renderer's
+  // mask texture array), and where a material's is in that list (-1: none).
+  std::vector<std::shared_ptr<const MaskImage>> mask_images() const;
+  int mask_image_index(std::uint32_t material) const;
 };
 
 // Moves the whole scene by `offset` metres: the camera's position and target, every instance,

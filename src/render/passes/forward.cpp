@@ -16,8 +16,10 @@ ForwardPass::ForwardPass(FrameResources& r) {
   const bool local = req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0;
   if (local) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
   layout_ = std::make_unique<gpu::PipelineLayout>(
-      r.ctx, std::vector<std::vector<gpu::BindingDesc>>{b}, uint32_t(sizeof(DrawPush)), all);
+      r.ctx, draw_sets(r, b), uint32_t(sizeof(DrawPush)), all);
   auto defines = light_defines(r);
+  if (!r.mask_textures.empty())
+    for (auto& d : mask_defines(r)) defines.push_back(d);
   if (r.visibility_output) defines.push_back({"PENUMBRA_VISIBILITY_OUTPUT", "1"});
   for (bool masked : {false, true}) {
     if (masked && !req.masked_materials) continue;

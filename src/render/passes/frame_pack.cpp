@@ -22,6 +22,14 @@ shadow::DepthConvention depth_of(bool reverse_z) {
 std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin) {
   std::vector<Draw> draws;
   draws.reserve(scene.instances.size());
+  const auto mask_images = scene.mask_images();
+  std::vector<std::uint32_t> mask_slot(scene.materials.size(), 0);
+  for (size_t m = 0; m < scene.materials.size(); ++m)
+    for (size_t i = 0; i < mask_images.size(); ++i)
+      if (scene.materials[m].mask_image == mask_images[i] ||
+          (scene.materials[m].mask_image &&
+           scene.materials[m].mask_image->source == mask_images[i]->source))
+        mask_slot[m] = std::uint32_t(i);
   for (const auto& inst : scene.instances) {
     const auto& mat = scene.materials.at(inst.material);
     Draw d{};
@@ -35,6 +43,7 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
     d.push.mask = glm::vec4(d.masked ? float(int(mat.mask)) : 0.0f, mat.alpha_cutoff,
                             mat.mask_scale.x, mat.mask_scale.y);
     d.casts = inst.casts_shadows;
+    d.mask_texture = mask_slot.at(inst.material);
     draws.push_back(d);
   }
   return draws;

@@ -61,6 +61,12 @@ struct FrameResources {
   gpu::Image visibility[2];
   gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
   gpu::Sampler nearest, shadow_compare, raw_depth;
+  // The scene's mask textures (R8, Scene::mask_images() order) with their linear, repeating
+  // sampler, and set 1 of the draw passes' layouts that holds them (create_mask_textures).
+  std::vector<gpu::Image> mask_textures;
+  gpu::Sampler mask_sampler;
+  std::unique_ptr<gpu::PipelineLayout> mask_set_layout;  // owns the set's layout
+  VkDescriptorSet mask_set = VK_NULL_HANDLE;
   PackedFrame packed;  // this frame's GPU data (pack_frame)
 
   // A render target or shadow map, listed in the build report.
@@ -93,7 +99,18 @@ class Pass {
 gpu::VertexInput vertex_input();
 // "forward-opaque PENUMBRA_SUN_SHADOWS=1 ...": a pipeline name with its variant defines.
 std::string variant(const std::string& name, const std::vector<shader::Define>& defines);
-// Every draw of the frame (casters only, or all), opaque then masked, with `index` pushed.
+// Mask textures (shaders/render/alpha_mask.glsl): at most this many distinct ones per scene.
+inline constexpr uint32_t kMaxMaskTextures = 32;
+// Uploads the scene's mask textures and writes the set that holds them; nothing when it has none.
+void create_mask_textures(FrameResources& r);
+// A draw pass's sets: set 0 as given, then (when the scene samples mask textures) set 1 with
+// the textures; and the define that sizes the shaders' array (PENUMBRA_MASK_TEXTURES).
+std::vector<std::vector<gpu::BindingDesc>> draw_sets(const FrameResources& r,
+                                                     std::vector<gpu::BindingDesc> set0);
+std::vector<gpu::BindingDesc> mask_set_bindings(const FrameResources& r);
+std::vector<shader::Define> mask_defines(const FrameResources& r);
+// Every draw of the frame (casters only, or all), opaque then masked, with `index` pushed (its w
+// replaced by the draw's mask texture); binds the mask set (set 1) when there is one.
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
 // A compute program run once per pixel of the frame (8x8 groups): its layout (set 0 only), its

@@ -9,12 +9,12 @@ PrepassPass::PrepassPass(FrameResources& r) {
   // Geometry: prepass + forward share the vertex stage and the frame block.
   layout_ = std::make_unique<gpu::PipelineLayout>(
       r.ctx,
-      std::vector<std::vector<gpu::BindingDesc>>{{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}},
-      uint32_t(sizeof(DrawPush)), all);
+      draw_sets(r, {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}), uint32_t(sizeof(DrawPush)),
+      all);
   for (bool masked : {false, true}) {
     if (masked && !r.req.masked_materials) continue;
     r.add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
-                   {{"render/geometry.vert", {}}, {"render/prepass.frag", {}}},
+                   {{"render/geometry.vert", {}}, {"render/prepass.frag", mask_defines(r)}},
                    [this, &r, masked](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];

@@ -83,6 +83,57 @@ std::vector<shader::Define> light_defines(const FrameResources& r) {
           {"PENUMBRA_POINT_SHADOWS", std::to_string(r.req.point_shadow_cubes)}};
 }
 
+std::vector<shader::Define> mask_defines(const FrameResources& r) {
+  return {{"PENUMBRA_MASK_TEXTURES", std::to_string(r.mask_textures.size())}};
+}
+
+std::vector<std::vector<gpu::BindingDesc>> draw_sets(const FrameResources& r,
+                                                     std::vector<gpu::BindingDesc> set0) {
+  std::vector<std::vector<gpu::BindingDesc>> sets{std::move(set0)};
+  if (!r.mask_textures.empty()) sets.push_back(mask_set_bindings(r));
+  return sets;
+}
+
+std::vector<gpu::BindingDesc> mask_set_bindings(const FrameResources& r) {
+  return {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, uint32_t(r.mask_textures.size()),
+           VK_SHADER_STAGE_FRAGMENT_BIT}};
+}
+
+void create_mask_textures(FrameResources& r) {
+  const auto images = r.scene.mask_images();
+  if (images.empty()) return;
+  const uint32_t limit =
+      std::min(kMaxMaskTextures, r.ctx.info().limits.maxPerStageDescriptorSamplers / 2);
+  if (images.size() > limit) {
+    throw Error("scene " + r.scene.source.string() + ": " + std::to_string(images.size()) +
+                " distinct mask textures (mask_texture); the renderer takes at most " +
+                std::to_string(limit));
+  }
+  for (const auto& image : images) {
+    gpu::ImageDesc d;
+    d.format = VK_FORMAT_R8_UNORM;
+    d.width = image->width;
+    d.height = image->height;
+    gpu::Image& texture = r.mask_textures.emplace_back(r.ctx, d);
+    texture.upload(std::as_bytes(std::span(image->texels)));
+    r.report.images.push_back("mask-texture " + image->source.filename().string() + " " +
+                              std::to_string(image->width) + "x" +
+                              std::to_string(image->height) + " R8_UNORM");
+  }
+  gpu::SamplerDesc s;
+  s.filter = VK_FILTER_LINEAR;
+  s.address = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  r.mask_sampler = gpu::Sampler(r.ctx, s);
+  r.mask_set_layout = std::make_unique<gpu::PipelineLayout>(
+      r.ctx, std::vector<std::vector<gpu::BindingDesc>>{mask_set_bindings(r)});
+  r.mask_set = r.pool.allocate(r.mask_set_layout->set_layout(0));
+  gpu::DescriptorWriter w;
+  for (uint32_t i = 0; i < r.mask_textures.size(); ++i)
+    w.combined_image(0, r.mask_textures[i].view(), r.mask_sampler.handle(),
+                     VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, i);
+  w.update(r.ctx, r.mask_set);
+}
+
 PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
                                  shader::ProgramSource source,
                                  std::vector<gpu::BindingDesc> bindings)
@@ -103,6 +154,11 @@ void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) con
 
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index) {
+  // Every draw layout has the mask set when the scene samples mask textures (the opaque
+  // pipelines share the masked ones' fragment shaders, which declare it).
+  if (r.mask_set != VK_NULL_HANDLE)
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
+                            &r.mask_set, 0, nullptr);
   for (int pass = 0; pass < 2; ++pass) {
     VkPipeline p = pass == 0 ? opaque : masked;
     if (p == VK_NULL_HANDLE) continue;
@@ -114,6 +170,7 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
       DrawPush push = d.push;
       push.index = index;
       push.index.z = d.casts ? 1u : 0u;  // the prepass marks casters for the contact pass
+      push.index.w = d.mask_texture;
       vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
       VkDeviceSize offset = 0;
       VkBuffer vb = m.vertices.handle();

@@ -19,11 +19,9 @@ struct ShadowMapPass::View {
 
 namespace {
 
-std::unique_ptr<gpu::PipelineLayout> ubo_layout(gpu::Context& ctx) {
+std::unique_ptr<gpu::PipelineLayout> ubo_layout(FrameResources& r) {
   return std::make_unique<gpu::PipelineLayout>(
-      ctx,
-      std::vector<std::vector<gpu::BindingDesc>>{
-          {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}},
+      r.ctx, draw_sets(r, {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, VK_SHADER_STAGE_ALL}}),
       uint32_t(sizeof(DrawPush)), VK_SHADER_STAGE_ALL);
 }
 
@@ -45,7 +43,7 @@ void add_caster_pipelines(FrameResources& r, const std::string& name, const std:
   for (bool masked : {false, true}) {
     if (masked && !r.req.masked_materials) continue;
     std::vector<shader::ProgramSource> sources{{vertex, {}}};
-    if (masked) sources.push_back({"render/shadow_masked.frag", {}});
+    if (masked) sources.push_back({"render/shadow_masked.frag", mask_defines(r)});
     auto& target = masked ? masked_out : opaque;
     r.add_pipeline(name + (masked ? "-masked" : "-opaque (no fragment stage)"), sources,
                    [&r, masked, depth_clamp, &layout, &target](const shader::Spirvs& spirv) {
@@ -80,7 +78,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.target = &sun_map;
     v.layers = [n](const PackedFrame&) { return n; };
     v.index = [](uint32_t c) { return glm::uvec4(c, 0, 0, 0); };
-    v.layout = ubo_layout(r.ctx);
+    v.layout = ubo_layout(r);
     add_caster_pipelines(r, "sun-shadow", "render/shadow_depth.vert", *v.layout, v.opaque, v.masked,
                          r.ctx.info().depth_clamp);
     v.set = ubo_set(r, *v.layout, sun_ubo);
@@ -101,7 +99,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.target = &spot_maps;
     v.layers = [](const PackedFrame& f) { return uint32_t(f.spot_shadows.size()); };
     v.index = [](uint32_t i) { return glm::uvec4(i, 0, 0, 0); };
-    v.layout = ubo_layout(r.ctx);
+    v.layout = ubo_layout(r);
     add_caster_pipelines(r, "spot-shadow", "render/spot_depth.vert", *v.layout, v.opaque, v.masked,
                          false);
     v.set = ubo_set(r, *v.layout, spot_ubo);
@@ -126,11 +124,11 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.layers = [](const PackedFrame& f) { return 6 * uint32_t(f.point_shadows.size()); };
     v.index = [](uint32_t l) { return glm::uvec4(l % 6, l / 6, 0, 0); };
     v.caster_bias = false;
-    v.layout = ubo_layout(r.ctx);
+    v.layout = ubo_layout(r);
     const gpu::PipelineLayout& layout = *v.layout;
     auto& pipe = v.opaque;
     r.add_pipeline("point-shadow-cube (linear distance)",
-                   {{"render/point_depth.vert", {}}, {"render/point_depth.frag", {}}},
+                   {{"render/point_depth.vert", {}}, {"render/point_depth.frag", mask_defines(r)}},
                    [&r, &layout, &pipe](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];
