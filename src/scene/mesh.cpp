@@ -232,6 +232,15 @@ Mesh make_box(glm::vec3 size) {
       {{0, 1, 0}, {0, 0, -1}},
       {{0, -1, 0}, {0, 0, 1}},
   }};
+  // The area of face f's pair, and the largest pair (ties: +Z, then +X, then +Y).
+  auto pair_area = [&](size_t f) {
+    const glm::vec3 across = glm::vec3(1.0f) - glm::abs(faces[f].first);
+    return (across.x > 0.0f ? size.x : 1.0f) * (across.y > 0.0f ? size.y : 1.0f) *
+           (across.z > 0.0f ? size.z : 1.0f);
+  };
+  size_t largest = 2;
+  for (size_t f : {size_t{0}, size_t{4}})
+    if (pair_area(f) > pair_area(largest)) largest = f;
   for (size_t f = 0; f < faces.size(); ++f) {
     const auto& [n, v_axis] = faces[f];
     const glm::vec3 u_axis = glm::cross(v_axis, n);
@@ -241,8 +250,11 @@ Mesh make_box(glm::vec3 size) {
     // The uvs are those of the +X, +Z or +Y face (the pair's first) at the same point seen
     // through the box: uv (0, 0) is that face's top-left corner (top = +v). A mask then cuts
     // through the box, its holes in the same place on both faces (from behind, the image is
-    // mirrored, as through a window).
-    const glm::vec3 ref_n = faces[f & ~size_t{1}].first, ref_v = faces[f & ~size_t{1}].second;
+    // mirrored, as through a window). The faces of a pair smaller than the largest (a panel's
+    // thin edges) take the largest pair's uvs instead: the mask is extruded through them, so
+    // a picket fence's top shows the pickets' ends, not the whole texture squeezed into 3 cm.
+    const size_t ref = pair_area(f) < pair_area(largest) ? largest : (f & ~size_t{1});
+    const glm::vec3 ref_n = faces[ref].first, ref_v = faces[ref].second;
     const glm::vec3 ref_u = glm::cross(ref_v, ref_n);
     auto uv = [&](glm::vec3 p) {
       return glm::vec2(0.5f + 0.5f * glm::dot(p, ref_u) / glm::dot(half, glm::abs(ref_u)),

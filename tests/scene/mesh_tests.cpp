@@ -102,7 +102,7 @@ TEST(ProceduralMesh, BoxIsClosedWithOutwardNormals) {
   EXPECT_TRUE(found);
 }
 
-// A mask cuts through a box: each corner of a face has the uv of the same corner on the
+// A mask cuts through a box: each corner of a panel's face has the uv of the same corner on the
 // opposite face (the pair's axis dropped), so a masked panel's holes go through both faces.
 // With the faces' own uvs the back's pattern was the front's mirror image, and a striped fence
 // cast an almost solid shadow.
@@ -111,7 +111,7 @@ TEST(ProceduralMesh, BoxMasksCutThrough) {
   size_t matched = 0;
   for (const Vertex& a : box.vertices) {
     for (const Vertex& b : box.vertices) {
-      if (a.normal != -b.normal) continue;
+      if (a.normal != -b.normal || a.normal.z == 0.0f) continue;  // the panel's two faces
       const glm::vec3 axis = glm::abs(a.normal);
       const glm::vec3 across = (glm::vec3(1.0f) - axis);
       if (a.position * across != b.position * across) continue;  // not the same corner
@@ -120,11 +120,30 @@ TEST(ProceduralMesh, BoxMasksCutThrough) {
       ++matched;
     }
   }
-  EXPECT_EQ(matched, 24u);  // every corner of every face has its partner
-  // Each face still spans the whole [0, 1]^2.
+  EXPECT_EQ(matched, 8u);  // every corner of the front and the back has its partner
+  // The panel's faces span the whole [0, 1]^2; its thin edges carry the panel's uvs at the same
+  // point (the mask is extruded through them): the top edge is the image's top row (v = 0), the
+  // ends its first and last columns.
   for (const Vertex& v : box.vertices) {
-    EXPECT_TRUE(v.uv.x == 0.0f || v.uv.x == 1.0f) << v.uv.x;
-    EXPECT_TRUE(v.uv.y == 0.0f || v.uv.y == 1.0f) << v.uv.y;
+    const glm::vec2 panel(0.5f + v.position.x / 4.0f, 0.5f - v.position.y / 1.0f);
+    EXPECT_EQ(v.uv, panel) << "normal " << v.normal.x << ", " << v.normal.y << ", " << v.normal.z;
+    if (v.normal == glm::vec3(0, 1, 0)) {
+      EXPECT_EQ(v.uv.y, 0.0f);
+    }
+    if (v.normal == glm::vec3(1, 0, 0)) {
+      EXPECT_EQ(v.uv.x, 1.0f);
+    }
+  }
+  // A cube has no thin edges: every face keeps its own pair's uvs and spans [0, 1]^2.
+  const Mesh cube = make_box(glm::vec3(1.0f));
+  for (size_t f = 0; f < 6; ++f) {
+    glm::vec2 lo(1.0f), hi(0.0f);
+    for (size_t k = 0; k < 4; ++k) {
+      lo = glm::min(lo, cube.vertices[4 * f + k].uv);
+      hi = glm::max(hi, cube.vertices[4 * f + k].uv);
+    }
+    EXPECT_EQ(lo, glm::vec2(0.0f)) << "face " << f;
+    EXPECT_EQ(hi, glm::vec2(1.0f)) << "face " << f;
   }
 }
 
