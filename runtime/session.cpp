@@ -125,7 +125,18 @@ std::vector<std::string> Session::keys() {
 void Session::set(const std::string& key, const std::string& value) {
   const scene::Param& p = scene::param(key);
   if (p.apply != scene::ParamApply::rebuild) {
+    // A frame-time key can still change what the scene requires (filter = evsm2 needs the
+    // moments): then the renderer is rebuilt.
+    const auto before = renderer_->scene().requirements();
+    const std::string old = scene::get_param(renderer_->scene(), key);
     scene::set_param(renderer_->scene(), key, value);
+    if (renderer_->scene().requirements() == before) return;
+    try {
+      rebuild(renderer_->scene(), width_, height_);
+    } catch (const Error&) {
+      scene::set_param(renderer_->scene(), key, old);  // the old renderer, as it was
+      throw;
+    }
     return;
   }
   scene::Scene next = renderer_->scene();

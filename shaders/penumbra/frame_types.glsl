@@ -34,6 +34,7 @@ struct FrameGpu {
   LightGpu points[kMaxPointLights];
   vec4 pcss;  // x: PCSS confidence fraction; y, z, w: local lights' PCSS search, min, max filter texels
   vec4 filter_world;  // x: 1 keeps PCF / Poisson widths constant in world units across cascades
+  vec4 evsm;  // x: exponent (clamped for the format), y: min variance, z: bleed reduction, w: 1 fp16
 };
 
 struct TemporalGpu {
@@ -53,6 +54,7 @@ const uint kFilterHard = 0u;
 const uint kFilterPcf = 1u;
 const uint kFilterPcss = 2u;
 const uint kFilterPoisson = 3u;
+const uint kFilterEvsm2 = 4u;
 
 const uint kViewLit = 0u;
 const uint kViewShadowFactor = 1u;

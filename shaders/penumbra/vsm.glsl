@@ -185,6 +185,38 @@ float evsm2_sample_shadow(sampler2D moment_map, vec3 coord, float exponent, floa
   return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
 }
 
+// Returns the EVSM2 shadow factor at coord from layer `layer` of a moment map array (a cascade's
+// moments; RG: E[w+], E[w+^2]) of the given format.
+float evsm2_sample_shadow_array(sampler2DArray moment_maps, vec3 coord, int layer, float exponent,
+                                float min_variance, float bleed_reduction, bool reverse_z,
+                                bool fp16) {
+  if (!vsm_coord_in_map(coord)) return 1.0;
+  vec2 moments = texture(moment_maps, vec3(coord.xy, float(layer))).xy;
+  return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
+}
+
+// Returns the EVSM2 moments (E[w+], E[w+^2]) of a row of a depth-map array averaged over
+// 2 radius + 1 texels along x around texel t (xy texel, z layer), reads clamped to [0, size):
+// the first half of a separable box blur of the moments (evsm_moments.comp's first pass).
+vec2 evsm2_moments_box_x(sampler2DArray depth_map, ivec3 t, int radius, int size, float exponent,
+                         bool reverse_z, bool fp16) {
+  vec2 sum = vec2(0.0);
+  for (int i = -radius; i <= radius; ++i) {
+    float d = texelFetch(depth_map, ivec3(clamp(t.x + i, 0, size - 1), t.y, t.z), 0).r;
+    sum += evsm_moments(d, vec2(exponent, 0.0), reverse_z, fp16).xy;
+  }
+  return sum / float(2 * radius + 1);
+}
+
+// Returns the moments of a moment-map array averaged over 2 radius + 1 texels along y around
+// texel t, reads clamped to [0, size): the second half of the separable box blur.
+vec2 moments_box_y(sampler2DArray moment_map, ivec3 t, int radius, int size) {
+  vec2 sum = vec2(0.0);
+  for (int j = -radius; j <= radius; ++j)
+    sum += texelFetch(moment_map, ivec3(t.x, clamp(t.y + j, 0, size - 1), t.z), 0).xy;
+  return sum / float(2 * radius + 1);
+}
+
 // Returns the EVSM4 shadow factor at coord from a moment map (RGBA: E[w+], E[w+^2], E[w-],
 // E[w-^2]).
 float evsm4_sample_shadow(sampler2D moment_map, vec3 coord, vec2 exponents, float min_variance,

@@ -7,6 +7,11 @@
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/shadow.glsl"
 #include "penumbra/noise.glsl"
+#include "penumbra/vsm.glsl"
+
+#ifndef PENUMBRA_SUN_MOMENTS
+#define PENUMBRA_SUN_MOMENTS 0
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -17,6 +22,10 @@ layout(set = 0, binding = 3) uniform sampler2D scene_normal;    // nearest, view
 layout(set = 0, binding = 4) uniform sampler2DArrayShadow shadow_compare;  // linear compare
 layout(set = 0, binding = 5) uniform sampler2DArray shadow_depth;          // nearest raw
 layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D shadow_info;
+#if PENUMBRA_SUN_MOMENTS
+// filter = evsm2: the cascades' blurred EVSM2 moments (evsm_moments.comp), linear, clamped.
+layout(set = 0, binding = 7) uniform sampler2DArray sun_moments;
+#endif
 
 // Visibility from one cascade, with its penumbra width (texels) for the debug view.
 float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out float penumbra) {
@@ -34,7 +43,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
   float reach = filter_mode == kFilterPcf       ? frame.filter_params.x
                 : filter_mode == kFilterPoisson ? frame.filter_params.w
                 : filter_mode == kFilterPcss    ? shadow.pcss.z
-                                                : 0.0;
+                                                : 0.0;  // hard; evsm2 (the bound needs no wider offset)
   // Constant width in world units: a Poisson disk whose radius is fixed in cascade 0's texels
   // and so shrinks, in texels, in the coarser cascades.
   float world_radius = filter_mode == kFilterPcf ? frame.filter_params.x + 0.5 : frame.filter_params.w;
@@ -68,6 +77,11 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
                               reverse_z, average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
+#if PENUMBRA_SUN_MOMENTS
+  if (filter_mode == kFilterEvsm2)
+    return evsm2_sample_shadow_array(sun_moments, coord, c, frame.evsm.x, frame.evsm.y,
+                                     frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
+#endif
   if (constant_width)
     return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), world_radius,
                              rotation, texel);
@@ -88,6 +102,7 @@ float filter_reach_texels() {
   if (filter_mode == kFilterPcf) return frame.filter_params.x + 1.0;
   if (filter_mode == kFilterPoisson) return ceil(frame.filter_params.w) + 1.0;
   if (filter_mode == kFilterPcss) return ceil(shadow.pcss.y) + 1.0;
+  if (filter_mode == kFilterEvsm2) return frame.filter_world.y + 1.0;  // the blur, then bilinear
   return 1.0;  // hard: one bilinear compare tap
 }
 

@@ -81,6 +81,7 @@ DeviceInfo describe(VkPhysicalDevice pd, uint32_t index) {
   vkGetPhysicalDeviceFeatures(pd, &features);
   info.depth_clamp = features.depthClamp == VK_TRUE;
   info.image_cube_array = features.imageCubeArray == VK_TRUE;
+  info.storage_image_extended_formats = features.shaderStorageImageExtendedFormats == VK_TRUE;
   VkFormatProperties fp{};
   vkGetPhysicalDeviceFormatProperties(pd, VK_FORMAT_D32_SFLOAT, &fp);
   info.linear_filter_d32 =
@@ -280,6 +281,9 @@ Context::Context(const ContextOptions& options) {
     // Mask textures are an array indexed by a push constant (shaders/render/alpha_mask.glsl).
     features.features.shaderSampledImageArrayDynamicIndexing =
         supported.shaderSampledImageArrayDynamicIndexing;
+    // The sun's EVSM moments are rg16f / rg32f storage images (shaders/render/evsm_moments.comp).
+    features.features.shaderStorageImageExtendedFormats =
+        supported.shaderStorageImageExtendedFormats;
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};

@@ -52,6 +52,7 @@ uint64_t history_key(const FrameGpu& f) {
   for (const auto& l : f.points) add(l.color_intensity), add(l.params);
   add(f.pcss);
   add(f.filter_world);
+  add(f.evsm);
   return h;
 }
 
@@ -170,6 +171,8 @@ struct Renderer::Impl {
 
     auto prepass = std::make_unique<PrepassPass>(res);
     shadow_maps = std::make_unique<ShadowMapPass>(res);
+    std::unique_ptr<Pass> evsm;  // before the resolve, which samples its moments
+    if (req.sun_moments) evsm = std::make_unique<EvsmPass>(res, *shadow_maps);
     std::unique_ptr<Pass> resolve;
     if (req.sun_shadows) resolve = std::make_unique<ShadowResolvePass>(res, *shadow_maps);
     std::unique_ptr<Pass> local_resolve;
@@ -183,6 +186,7 @@ struct Renderer::Impl {
     auto forward = std::make_unique<ForwardPass>(res);
     auto tonemap = std::make_unique<TonemapPass>(res);
     passes.push_back(std::move(prepass));
+    if (evsm) passes.push_back(std::move(evsm));
     if (resolve) passes.push_back(std::move(resolve));
     if (local_resolve) passes.push_back(std::move(local_resolve));
     if (temporal) passes.push_back(std::move(temporal));
@@ -196,6 +200,7 @@ struct Renderer::Impl {
     caps.depth_clamp = ctx.info().depth_clamp;
     caps.contact_pass = res.contact_mask != nullptr;
     caps.sun_shadows = res.req.sun_shadows;
+    caps.sun_moments = res.req.sun_moments;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;
     res.packed = pack_frame(scene, res.width, res.height, caps, frame_index);

@@ -112,7 +112,7 @@ std::vector<Param> make_params() {
   using S = Scene;
   using A = ParamApply;
   using T = ParamType;
-  const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson"};
+  const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson", "evsm2"};
   const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
   const std::vector<std::string_view> selections{"depth", "containment"};
   const std::vector<std::string_view> views{"lit",          "shadow_factor", "cascades",
@@ -206,7 +206,9 @@ std::vector<Param> make_params() {
        "false: lit but casts no shadows (no cascades are built)"},
       // [shadows]
       {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,
-       "how shadow maps are filtered", filters},
+       "how shadow maps are filtered (`evsm2`: the sun's cascades only; spot and point lights "
+       "without a filter of their own then use `pcf`)",
+       filters},
       {"shadows.cascades", T::integer, closed(1, 4),
        field<&S::shadows, &ShadowSettings::cascades>(), A::rebuild, "sun cascades"},
       {"shadows.lambda", T::number, kUnit, field<&S::shadows, &ShadowSettings::split_lambda>(),
@@ -337,6 +339,40 @@ std::vector<Param> make_params() {
        "the new frame's share of the accumulated visibility with `temporal` (1: no history)",
        {},
        slider(0.02, 1.0)},
+      {"shadows.evsm_fp16", T::boolean, kAny, field<&S::shadows, &ShadowSettings::evsm_fp16>(),
+       A::rebuild,
+       "`evsm2`: store the moments in 16-bit floats (half the memory and bandwidth; the exponent "
+       "is then clamped to 5.54, against 42 in 32-bit floats)"},
+      {"shadows.evsm_exponent",
+       T::number,
+       ParamRange{0.0, 42.0, true, false},
+       field<&S::shadows, &ShadowSettings::evsm_exponent>(),
+       A::frame,
+       "`evsm2`: the warp's exponent c (larger: less light bleeding, more precision needed); "
+       "clamped for the moment format",
+       {},
+       slider(1.0, 42.0)},
+      {"shadows.evsm_blur", T::integer, closed(0, 8),
+       field<&S::shadows, &ShadowSettings::evsm_blur>(), A::frame,
+       "`evsm2`: texels of the separable box blur of the moments on each side (0: none); the "
+       "penumbra's width in texels"},
+      {"shadows.evsm_bleed_reduction",
+       T::number,
+       ParamRange{0.0, 1.0, false, true},
+       field<&S::shadows, &ShadowSettings::evsm_bleed_reduction>(),
+       A::frame,
+       "`evsm2`: visibility below this is cut to 0 and the rest rescaled (hides light bleeding, "
+       "hardens penumbrae)",
+       {},
+       slider(0.0, 0.9)},
+      {"shadows.evsm_min_variance",
+       T::number,
+       closed(0.0, 0.01),
+       field<&S::shadows, &ShadowSettings::evsm_min_variance>(),
+       A::frame,
+       "`evsm2`: the smallest variance in depth units squared (against acne on slopes)",
+       {},
+       slider(0.0, 1e-4)},
       // [contact]
       {"contact.steps", T::integer, closed(0, kMaxContactSteps),
        field<&S::contact, &ContactSettings::step_count>(), A::rebuild,

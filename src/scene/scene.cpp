@@ -94,6 +94,7 @@ Scene::Requirements Scene::requirements() const {
     }
   }
   r.mask_textures = std::uint32_t(mask_images().size());
+  r.sun_moments = r.sun_shadows && shadows.filter == Filter::evsm2;
   return r;
 }
 
@@ -138,6 +139,8 @@ int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool 
       return int(std::clamp(shadows.poisson_taps, 1u, 32u));
     case Filter::pcss:
       return (8 << tier) + (16 << tier);  // pcss_search_tap_count + pcss_filter_tap_count
+    case Filter::evsm2:
+      return 1;  // one bilinear fetch of the blurred moments (the blur is its own pass)
   }
   return 1;
 }

@@ -115,6 +115,16 @@ void read_sun(const Reader& r, Scene& scene) {
   read_table(r, "sun", scene);
 }
 
+// A spot or point light's own filter: moments (evsm2) are built for the sun's cascades only.
+std::optional<Filter> local_filter(const Reader& r) {
+  if (r.has("filter") && r.opt_string("filter") == "evsm2") {
+    r.fail_key("filter",
+               "'evsm2' is for the sun's cascades only; spot and point lights take hard, pcf, "
+               "pcss or poisson");
+  }
+  return r.opt_enum("filter", kLocalFilters);
+}
+
 void read_spot(const Reader& r, SpotLight& spot) {
   r.check_keys({"position", "direction", "target", "color", "intensity", "outer_angle",
                 "inner_angle", "range", "radius", "shadows", "resolution", "filter"});
@@ -147,7 +157,7 @@ void read_spot(const Reader& r, SpotLight& spot) {
   spot.radius = r.numberf("radius", spot.radius, kNonNegative);
   spot.shadows = r.boolean("shadows", spot.shadows);
   spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
-  spot.filter = r.opt_enum("filter", kFilters);
+  spot.filter = local_filter(r);
 }
 
 void read_point(const Reader& r, PointLight& point) {
@@ -160,7 +170,7 @@ void read_point(const Reader& r, PointLight& point) {
   point.radius = r.numberf("radius", point.radius, kNonNegative);
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
-  point.filter = r.opt_enum("filter", kFilters);
+  point.filter = local_filter(r);
 }
 
 // [shadows], [contact] and [render] are the parameter table's rows and nothing else.

@@ -128,7 +128,13 @@ inline const Names<AlphaMode> kAlphaModes{{"opaque", AlphaMode::opaque},
 inline const Names<Filter> kFilters{{"hard", Filter::hard},
                                     {"pcf", Filter::pcf},
                                     {"pcss", Filter::pcss},
-                                    {"poisson", Filter::poisson}};
+                                    {"poisson", Filter::poisson},
+                                    {"evsm2", Filter::evsm2}};
+// A spot or point light's own filter (moments are built for the sun's cascades only).
+inline const Names<Filter> kLocalFilters{{"hard", Filter::hard},
+                                         {"pcf", Filter::pcf},
+                                         {"pcss", Filter::pcss},
+                                         {"poisson", Filter::poisson}};
 inline const Names<MaskPattern> kMasks{{"none", MaskPattern::none},
                                        {"texture", MaskPattern::texture},
                                        {"stripes", MaskPattern::stripes},

@@ -244,8 +244,9 @@ void main() { x = frame.viewport.x + draw.albedo.x; }
   PENUMBRA_CHECK(points);
   PENUMBRA_CHECK(pcss);
   PENUMBRA_CHECK(filter_world);
+  PENUMBRA_CHECK(evsm);
 #undef PENUMBRA_CHECK
-  EXPECT_EQ(f->members.size(), 19u) << "a GLSL member without a C++ counterpart";
+  EXPECT_EQ(f->members.size(), 20u) << "a GLSL member without a C++ counterpart";
   EXPECT_EQ(f->size, sizeof(render::FrameGpu));
   EXPECT_EQ(member("spots").array_stride, sizeof(render::LightGpu));
   ASSERT_TRUE(refl.push_constants.has_value());

@@ -250,6 +250,30 @@ TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
       << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
 }
 
+// filter = evsm2 on the sun (the evsm pass's moments, blurred, then the Chebyshev bound) under
+// a hard sun: in both moment formats the umbrae survive and the lit ground stays lit away from
+// shadow edges. EVSM's failure modes are light bleeding (umbrae lit where a second occluder
+// overlaps) and lost contact shadows; the bounds below leave room for neither on this scene.
+TEST_F(ReferenceGpu, Evsm2OnTheSunKeepsUmbraeAndLitGroundInBothMomentFormats) {
+  for (const char* fp16 : {"false", "true"}) {
+    SCOPED_TRACE(std::string("evsm_fp16 = ") + fp16);
+    scene::Scene s = scene::parse_scene(kHardSunScene, "hard-sun.toml", ".");
+    scene::set_param(s, "shadows.filter", "evsm2");
+    scene::set_param(s, "shadows.evsm_fp16", fp16);
+    scene::set_param(s, "shadows.resolution", "2048");  // a quarter of the moments to write
+    ASSERT_TRUE(s.requirements().sun_moments);
+    const Agreement a = hard_sun_agreement(ctx(), s);
+    ASSERT_GT(a.n, 50000u);
+    ASSERT_GT(a.shadowed, 800u);
+    EXPECT_GE(double(a.agree) / double(a.n), 0.995)
+        << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
+    EXPECT_GE(double(a.shadowed_agree) / double(a.shadowed), 0.995)
+        << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
+    std::printf("evsm_fp16 = %s: %zu of %zu interior agree, %zu of %zu shadowed\n", fp16,
+                a.agree, a.n, a.shadowed_agree, a.shadowed);
+  }
+}
+
 // A fence masked by a texture (the grazing scene's lattice in 1.5 m tiles), leaning between the
 // sun and the ground: the rasterizer's caster pass and the reference's occlusion filter cut the
 // same holes. The holes are the receivers the same fence, opaque, shadows in the reference and

@@ -119,7 +119,8 @@ TEST(ScriptEndToEnd, AnErrorNamesTheScriptLineAndFails) {
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(
       r.output,
-      HasSubstr("--command 1: set shadows.filter pcx: expected one of hard, pcf, pcss, poisson"));
+      HasSubstr("--command 1: set shadows.filter pcx: expected one of hard, pcf, pcss, poisson, "
+                "evsm2"));
 }
 
 // --set overrides a parameter-table key for the headless frames (what penumbra-bench uses), and

@@ -231,7 +231,7 @@ TEST(Params, ChoicesAreTheEnumsNames) {
   EXPECT_EQ(to_string(CascadeFit::slice_sphere), "slice_sphere");
   EXPECT_EQ(to_string(DebugView::penumbra), "penumbra");
   EXPECT_EQ(param("render.view").choices.size(), std::size_t(DebugView::penumbra) + 1);
-  EXPECT_EQ(param("shadows.filter").choices.size(), std::size_t(Filter::poisson) + 1);
+  EXPECT_EQ(param("shadows.filter").choices.size(), std::size_t(Filter::evsm2) + 1);
   EXPECT_THAT(
       [] {
         try {

@@ -274,6 +274,19 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
               HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
                                              "values: hard, pcf, pcss, poisson (did you mean "
                                              "'pcf'?)"));
+  // Moments are the sun's only: a local light's evsm2 is refused with where and why.
+  const std::string evsm =
+      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox;
+  EXPECT_THAT(error_of(evsm), HasSubstr(at(evsm, "filter") + "[[spot]] #1 filter: 'evsm2' is for "
+                                                             "the sun's cascades only"));
+  // Under the sun's evsm2 a light without a filter of its own keeps it unset (pcf is chosen
+  // when the frame is packed), and the scene requires the moments only with a shadowed sun.
+  const Scene sun = parse("[sun]\ndirection = [0, -1, 0]\n[shadows]\nfilter = \"evsm2\"\n"
+                          "[[point]]\nposition = [1, 2, 0]\n" + kBox);
+  EXPECT_FALSE(sun.points[0].filter.has_value());
+  EXPECT_TRUE(sun.requirements().sun_moments);
+  const Scene no_sun = parse("[shadows]\nfilter = \"evsm2\"\n" + kBox);
+  EXPECT_FALSE(no_sun.requirements().sun_moments);
 }
 
 TEST(SceneFile, ObjectTransform) {
@@ -640,7 +653,7 @@ TEST(SceneErrors, WrongTypes) {
                                         "integer (3)"));
   text = "[shadows]\nfilter = 2\n" + kBox;
   EXPECT_THAT(error_of(text), HasSubstr("[shadows] filter: expected a string (one of hard, pcf, "
-                                        "pcss, poisson), got an integer (2)"));
+                                        "pcss, poisson, evsm2), got an integer (2)"));
   text = "[sun]\ndirection = [0, -1, 0]\nintensity = nan\n" + kBox;
   EXPECT_THAT(error_of(text), HasSubstr("[sun] intensity = nan is not finite"));
 }
@@ -694,7 +707,7 @@ TEST(SceneErrors, UnknownEnumValuesListTheValidOnes) {
   EXPECT_THAT(error_of(text),
               HasSubstr(at(text, "filter") +
                         "[shadows] filter: unknown value 'pfc'; valid values: hard, pcf, pcss, "
-                        "poisson (did you mean 'pcf'?)"));
+                        "poisson, evsm2 (did you mean 'pcf'?)"));
   EXPECT_THAT(error_of("[shadows]\nfit = \"sphere\"\n" + kBox),
               HasSubstr("valid values: box, camera_sphere, slice_sphere"));
   EXPECT_THAT(error_of("[render]\nview = \"depth\"\n" + kBox),

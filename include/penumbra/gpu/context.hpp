@@ -42,6 +42,8 @@ struct DeviceInfo {
   bool depth_clamp = false;
   bool image_cube_array = false;  // imageCubeArray: cube-map arrays (enabled when supported)
   bool linear_filter_d32 = false;  // VK_FORMAT_D32_SFLOAT supports linear filtering
+  // shaderStorageImageExtendedFormats (rg16f, rg32f storage images; enabled when supported)
+  bool storage_image_extended_formats = false;
 };
 
 std::string to_string(VkPhysicalDeviceType type);

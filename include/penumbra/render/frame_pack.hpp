@@ -24,6 +24,7 @@ struct FrameCaps {
   std::uint32_t spot_shadow_maps = 0;
   std::uint32_t point_shadow_cubes = 0;
   bool sun_shadows = false;
+  bool sun_moments = false;  // the evsm pass was built (filter = evsm2 is honoured)
 };
 
 // One instance, ready to draw: its mesh and push constants (model relative to the origin).

@@ -24,6 +24,10 @@ struct alignas(16) LightGpu {
 };
 static_assert(sizeof(LightGpu) == 64);
 
+// The EVSM exponent limits of shaders/penumbra/vsm.glsl (kEvsmMaxExponentFp16 / Fp32).
+inline constexpr float kEvsmMaxExponentFp16 = 5.54f;
+inline constexpr float kEvsmMaxExponentFp32 = 42.0f;
+
 struct alignas(16) FrameGpu {
   glm::mat4 view;  // (world - origin) -> view
   glm::mat4 proj;  // view -> clip (reverse-Z when counts.y == 1)
@@ -41,7 +45,7 @@ struct alignas(16) FrameGpu {
   glm::vec4 bias;
   glm::vec4 filter_params;  // x: PCF radius, y: PCSS tier, z: Poisson taps, w: Poisson radius
   // x: frame index; y: depth convention (1 reverse-Z); z: filter (0 hard, 1 pcf, 2 pcss,
-  // 3 poisson); w: debug view (0 lit, 1 shadow factor, 2 cascades, 3 contact mask, 4 texel
+  // 3 poisson, 4 evsm2: the sun only, and only when the moments are built); w: debug view (0 lit, 1 shadow factor, 2 cascades, 3 contact mask, 4 texel
   // density, 5 penumbra)
   glm::uvec4 mode;
   // x: spot lights, y: point lights, z: contact pass (0/1), w: the visibility slot the contact
@@ -53,8 +57,12 @@ struct alignas(16) FrameGpu {
   // search radius, minimum and maximum filter radius (texels)
   glm::vec4 pcss;
   // x: 1 when PCF and Poisson keep their width in world units across cascades
-  // (shadows.constant_filter_width), else 0; yzw: 0
+  // (shadows.constant_filter_width), else 0; y: the evsm2 blur radius in texels
+  // (shadows.evsm_blur); z, w: 0
   glm::vec4 filter_world;
+  // filter = evsm2 (the sun): x the exponent c, clamped for the moment format; y the minimum
+  // variance (depth units squared); z light-bleed reduction; w 1 when the moments are fp16
+  glm::vec4 evsm;
 };
 
 static_assert(offsetof(FrameGpu, view) == 0);
@@ -68,7 +76,8 @@ static_assert(offsetof(FrameGpu, spots) == 432);
 static_assert(offsetof(FrameGpu, points) == 560);
 static_assert(offsetof(FrameGpu, pcss) == 688);
 static_assert(offsetof(FrameGpu, filter_world) == 704);
-static_assert(sizeof(FrameGpu) == 720);
+static_assert(offsetof(FrameGpu, evsm) == 720);
+static_assert(sizeof(FrameGpu) == 736);
 
 // The shadow-temporal pass's block (shaders/render/shadow_temporal.comp): how this frame's
 // pixels find the last frame's.

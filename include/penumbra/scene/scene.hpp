@@ -92,7 +92,9 @@ struct Sun {
   bool shadows = true;
 };
 
-enum class Filter { hard, pcf, pcss, poisson };
+// evsm2: exponential variance shadow maps (the sun's cascades only; a spot or point light
+// without a filter of its own then uses pcf).
+enum class Filter { hard, pcf, pcss, poisson, evsm2 };
 
 struct SpotLight {
   glm::vec3 position{0.0f};
@@ -160,6 +162,16 @@ struct ShadowSettings {
   // (0, 1]. docs/accuracy.md has the measurements behind the defaults.
   bool temporal = false;
   float temporal_weight = 0.2f;
+  // filter = evsm2 (the sun): the cascades' depths become moments of the positive EVSM warp
+  // exp(c x) (the evsm pass), blurred with a separable box of evsm_blur texels a side, and the
+  // resolve evaluates the Chebyshev bound with light-bleed reduction. evsm_fp16 stores the
+  // moments in 16-bit floats (c is clamped to 5.54 for them, 42 for fp32).
+  // Defaults from a sweep against the reference (docs/accuracy.md, "EVSM2 on the sun").
+  bool evsm_fp16 = true;
+  float evsm_exponent = 40.0f;        // c, in (0, 42]; clamped for the moment format
+  int evsm_blur = 0;                  // box radius in texels, in [0, 8]
+  float evsm_bleed_reduction = 0.2f;  // in [0, 1)
+  float evsm_min_variance = 1e-6f;    // depth units squared, in [0, 0.01]
 };
 
 // The most contact-shadow march steps (what contact_shadows.comp can march).
@@ -224,6 +236,8 @@ struct Scene {
     bool masked_materials = false;         // an instance uses a masked material
     std::uint32_t mask_textures = 0;       // distinct mask textures those materials sample
     bool temporal = false;                 // shadows.temporal and a shadowed light
+    bool sun_moments = false;              // sun_shadows with filter = evsm2: the evsm pass
+    bool operator==(const Requirements&) const = default;
   };
   Requirements requirements() const;
   // The distinct mask textures of the materials instances use, in material order (the renderer's

@@ -49,6 +49,14 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
   return draws;
 }
 
+// LightGpu.params.w: a local light's own filter, else -1 (the scene's); moments are the sun's
+// only, so under filter = evsm2 a light without a filter of its own uses pcf.
+float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> own) {
+  if (own) return float(filter_index(*own));
+  return scene.shadows.filter == scene::Filter::evsm2 ? float(filter_index(scene::Filter::pcf))
+                                                      : -1.0f;
+}
+
 void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedFrame& out) {
   const bool reverse_z = scene.shadows.reverse_z;
   const glm::dvec3& origin = out.origin;
@@ -63,7 +71,7 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
         glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
     l.color_intensity = glm::vec4(s.color, s.intensity);
     l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius,
-                         s.filter ? float(filter_index(*s.filter)) : -1.0f);
+                         local_filter_slot(scene, s.filter));
     if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
       shadow::SpotLight sl;
       sl.position = to_d(s.position);
@@ -84,7 +92,7 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
     LightGpu& l = out.frame.points[points++];
     l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
     l.color_intensity = glm::vec4(p.color, p.intensity);
-    l.params = glm::vec4(0, -1.0f, p.radius, p.filter ? float(filter_index(*p.filter)) : -1.0f);
+    l.params = glm::vec4(0, -1.0f, p.radius, local_filter_slot(scene, p.filter));
     if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
       shadow::PointLight pl;
       pl.position = to_d(p.position);
@@ -160,6 +168,8 @@ std::uint32_t filter_index(scene::Filter f) {
       return 2;
     case scene::Filter::poisson:
       return 3;
+    case scene::Filter::evsm2:
+      return 4;
   }
   return 1;
 }
@@ -213,11 +223,20 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   frame.filter_params =
       glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
                 std::max(1.0f, float(sh.pcf_radius) + 0.5f));
-  frame.filter_world = glm::vec4(sh.constant_filter_width ? 1.0f : 0.0f, 0.0f, 0.0f, 0.0f);
+  frame.filter_world = glm::vec4(sh.constant_filter_width ? 1.0f : 0.0f,
+                                 float(std::clamp(sh.evsm_blur, 0, 8)), 0.0f, 0.0f);
   frame.pcss = glm::vec4(sh.pcss_confidence, sh.pcss_search_texels, sh.pcss_min_filter_texels,
                          sh.pcss_max_filter_texels);
-  frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sh.filter),
+  // evsm2 needs the moments; without them (a renderer built for another filter) the sun
+  // falls back to pcf.
+  const bool moments = sh.filter == scene::Filter::evsm2 && caps.sun_moments;
+  const scene::Filter sun_filter =
+      sh.filter == scene::Filter::evsm2 && !moments ? scene::Filter::pcf : sh.filter;
+  frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sun_filter),
                           uint32_t(scene.render.view));
+  const float max_exponent = sh.evsm_fp16 ? kEvsmMaxExponentFp16 : kEvsmMaxExponentFp32;
+  frame.evsm = glm::vec4(std::clamp(sh.evsm_exponent, 0.0f, max_exponent), sh.evsm_min_variance,
+                         sh.evsm_bleed_reduction, sh.evsm_fp16 ? 1.0f : 0.0f);
   frame.ambient = glm::vec4(0.18f, 0.2f, 0.24f, scene.render.exposure);
   if (scene.sun) {
     frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);

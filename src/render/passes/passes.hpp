@@ -60,6 +60,10 @@ struct FrameResources {
   gpu::Buffer temporal_ubo;
   gpu::Image visibility[2];
   gpu::Image* contact_mask = nullptr;  // the contact pass's, when it is built
+  // filter = evsm2 (EvsmPass): the sun's blurred moments, one layer per cascade, and the linear
+  // clamping sampler the resolve reads them through.
+  gpu::Image sun_moments;
+  gpu::Sampler linear_clamp;
   gpu::Sampler nearest, shadow_compare, raw_depth;
   // The scene's mask textures (R8, Scene::mask_images() order) with their linear, repeating
   // sampler, and set 1 of the draw passes' layouts that holds them (create_mask_textures).
@@ -168,6 +172,23 @@ class PrepassPass final : public Pass {
   VkDescriptorSet set_ = VK_NULL_HANDLE;
 };
 
+// The sun's EVSM2 moments (filter = evsm2): each cascade's depths warped into moments and
+// box-blurred, x then y (shaders/render/evsm_moments.comp), into sun-moments.
+class EvsmPass final : public Pass {
+ public:
+  EvsmPass(FrameResources& r, const ShadowMapPass& maps);
+  ~EvsmPass() override;
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  std::unique_ptr<gpu::PipelineLayout> layout_;
+  std::unique_ptr<gpu::ComputePipeline> pass_[2];  // x (from the depths), then y
+  VkDescriptorSet set_[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
+  gpu::Image moments_x_;
+  uint32_t resolution_ = 0, layers_ = 0;
+};
+
 // The sun: cascade selection, biases and the filter, per pixel, into the shadow-info image.
 class ShadowResolvePass final : public Pass {
  public:
@@ -177,6 +198,7 @@ class ShadowResolvePass final : public Pass {
 
  private:
   PerPixelCompute compute_;
+  bool moments_ = false;  // filter = evsm2: it reads sun-moments
 };
 
 // Spot and point lights: biases and the filter, per pixel and light, into the local-shadow image

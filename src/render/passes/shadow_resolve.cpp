@@ -12,14 +12,28 @@ namespace {
 
 constexpr VkShaderStageFlags kCompute = VK_SHADER_STAGE_COMPUTE_BIT;
 
-std::vector<gpu::BindingDesc> sun_resolve_bindings() {
-  return {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
-          {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
-          {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-          {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-          {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-          {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-          {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+// Frame, cascades, depth, normals, the cascades' compare and raw views, the output; with
+// filter = evsm2 the moments at 7.
+std::vector<gpu::BindingDesc> sun_resolve_bindings(const FrameResources& r) {
+  std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+                                  {1, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+                                  {2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {4, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {5, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                  {6, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+  if (r.req.sun_moments) b.push_back({7, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  return b;
+}
+
+// The sun resolve's program: with the moments it is a variant of its own.
+std::string sun_resolve_name(const FrameResources& r) {
+  return r.req.sun_moments ? variant("shadow-resolve", {{"PENUMBRA_SUN_MOMENTS", "1"}})
+                           : std::string("shadow-resolve");
+}
+std::vector<shader::Define> sun_resolve_defines(const FrameResources& r) {
+  if (!r.req.sun_moments) return {};
+  return {{"PENUMBRA_SUN_MOMENTS", "1"}};
 }
 
 // Frame, depth, normals and the two outputs, then per light type present its block, its compare
@@ -47,7 +61,8 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
 }  // namespace
 
 ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
-    : compute_(r, "shadow-resolve", {"render/shadow_resolve.comp", {}}, sun_resolve_bindings()) {
+    : compute_(r, sun_resolve_name(r), {"render/shadow_resolve.comp", sun_resolve_defines(r)},
+               sun_resolve_bindings(r)) {
   r.info = r.make_image("shadow-info", gpu::ImageKind::image_2d, kInfoFormat, r.width, r.height, 1,
                         VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   gpu::DescriptorWriter()
@@ -59,10 +74,17 @@ ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& map
       .combined_image(5, maps.sun_map.view(), r.raw_depth.handle())
       .storage_image(6, r.info.view())
       .update(r.ctx, compute_.set());
+  if (r.req.sun_moments) {
+    gpu::DescriptorWriter()
+        .combined_image(7, r.sun_moments.view(), r.linear_clamp.handle())
+        .update(r.ctx, compute_.set());
+  }
+  moments_ = r.req.sun_moments;
   r.report.passes.push_back("shadow-resolve: compute");
 }
 
 PassIo ShadowResolvePass::io() const {
+  if (moments_) return {{"frame", "depth", "normal", "sun-shadow-map", "sun-moments"}, {"shadow-info"}};
   return {{"frame", "depth", "normal", "sun-shadow-map"}, {"shadow-info"}};
 }
 

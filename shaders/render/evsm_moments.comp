@@ -1,0 +1,42 @@
+#version 460
+// The sun's EVSM2 moments (shadows.filter = evsm2), in two dispatches over every cascade layer:
+// PENUMBRA_EVSM_PASS 0 reads the cascade's depths, warps each into the moments of the positive
+// EVSM warp and averages them along x over 2 r + 1 texels (penumbra/vsm.glsl:
+// evsm2_moments_box_x, the exponent clamped for the moment format); pass 1 averages the result
+// along y (moments_box_y) into the moment map the shadow resolve samples. r = push.params.x (shadows.evsm_blur); reads clamp at the
+// map's edges. PENUMBRA_EVSM_FORMAT is the storage format (rg16f or rg32f).
+#include "penumbra/frame_types.glsl"
+#include "penumbra/vsm.glsl"
+
+#ifndef PENUMBRA_EVSM_PASS
+#define PENUMBRA_EVSM_PASS 0
+#endif
+#ifndef PENUMBRA_EVSM_FORMAT
+#define PENUMBRA_EVSM_FORMAT rg32f
+#endif
+
+layout(local_size_x = 8, local_size_y = 8) in;
+
+layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
+#if PENUMBRA_EVSM_PASS == 0
+layout(set = 0, binding = 1) uniform sampler2DArray shadow_depth;  // nearest, raw depths
+layout(set = 0, binding = 2, PENUMBRA_EVSM_FORMAT) uniform writeonly image2DArray moments_x;
+#else
+layout(set = 0, binding = 1) uniform sampler2DArray moments_x;  // nearest
+layout(set = 0, binding = 2, PENUMBRA_EVSM_FORMAT) uniform writeonly image2DArray moments;
+#endif
+layout(push_constant) uniform Push { uvec4 params; };  // x blur radius, y resolution
+
+void main() {
+  ivec3 t = ivec3(gl_GlobalInvocationID);
+  int size = int(params.y);
+  if (t.x >= size || t.y >= size) return;
+  int r = int(params.x);
+#if PENUMBRA_EVSM_PASS == 0
+  vec2 m = evsm2_moments_box_x(shadow_depth, t, r, size, frame.evsm.x, frame.mode.y == 1u,
+                               frame.evsm.w != 0.0);
+  imageStore(moments_x, t, vec4(m, 0.0, 0.0));
+#else
+  imageStore(moments, t, vec4(moments_box_y(moments_x, t, r, size), 0.0, 0.0));
+#endif
+}

@@ -1,0 +1,93 @@
+// The sun's EVSM2 moments (shadows.filter = evsm2): after the cascades are drawn, each cascade's
+// depths are warped into moments and box-blurred along x, then along y
+// (shaders/render/evsm_moments.comp), into sun-moments, which the shadow resolve samples
+// bilinearly. Built only when the scene's sun uses evsm2.
+
+#include <penumbra/core/error.hpp>
+
+#include "passes.hpp"
+
+namespace penumbra::render::passes {
+
+namespace {
+
+constexpr VkShaderStageFlags kCompute = VK_SHADER_STAGE_COMPUTE_BIT;
+
+struct EvsmPush {
+  glm::uvec4 params;  // x blur radius, y resolution
+};
+
+}  // namespace
+
+EvsmPass::EvsmPass(FrameResources& r, const ShadowMapPass& maps) {
+  const bool fp16 = r.scene.shadows.evsm_fp16;
+  if (!r.ctx.info().storage_image_extended_formats) {
+    throw Error("shadows.filter = 'evsm2' needs shaderStorageImageExtendedFormats (rg16f / rg32f "
+                "storage images), which " + r.ctx.info().name + " does not have");
+  }
+  resolution_ = maps.sun_map.desc().width;
+  layers_ = maps.sun_map.desc().layers;
+  const VkFormat format = fp16 ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
+  const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
+  moments_x_ = r.make_image("sun-moments-x", gpu::ImageKind::image_2d_array, format, resolution_,
+                            resolution_, layers_, usage);
+  r.sun_moments = r.make_image("sun-moments", gpu::ImageKind::image_2d_array, format, resolution_,
+                               resolution_, layers_, usage);
+  gpu::SamplerDesc linear;
+  linear.filter = VK_FILTER_LINEAR;
+  r.linear_clamp = gpu::Sampler(r.ctx, linear);
+  layout_ = std::make_unique<gpu::PipelineLayout>(
+      r.ctx,
+      std::vector<std::vector<gpu::BindingDesc>>{
+          {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+           {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+           {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}}},
+      uint32_t(sizeof(EvsmPush)), kCompute);
+  for (int p = 0; p < 2; ++p) {
+    const std::vector<shader::Define> defines{{"PENUMBRA_EVSM_PASS", std::to_string(p)},
+                                              {"PENUMBRA_EVSM_FORMAT", fp16 ? "rg16f" : "rg32f"}};
+    r.add_pipeline(variant(p == 0 ? "evsm-moments-x" : "evsm-moments-y", defines),
+                   {{"render/evsm_moments.comp", defines}},
+                   [this, &r, p](const shader::Spirvs& spirv) {
+                     pass_[p] = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
+                   });
+    set_[p] = r.pool.allocate(layout_->set_layout(0));
+  }
+  gpu::DescriptorWriter()
+      .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+      .combined_image(1, maps.sun_map.view(), r.raw_depth.handle())
+      .storage_image(2, moments_x_.view())
+      .update(r.ctx, set_[0]);
+  gpu::DescriptorWriter()
+      .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+      .combined_image(1, moments_x_.view(), r.nearest.handle())
+      .storage_image(2, r.sun_moments.view())
+      .update(r.ctx, set_[1]);
+  r.report.passes.push_back(std::string("evsm: moments ") + (fp16 ? "rg16f" : "rg32f") + ", " +
+                            std::to_string(layers_) + " layer(s), separable box blur");
+}
+
+EvsmPass::~EvsmPass() = default;
+
+PassIo EvsmPass::io() const {
+  return {{"frame", "sun-shadow-map"}, {"sun-moments-x", "sun-moments"}};
+}
+
+void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
+  const EvsmPush push{glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)),
+                                 resolution_, 0u, 0u)};
+  const uint32_t groups = (resolution_ + 7) / 8;
+  gpu::Image* out[2] = {&moments_x_, &r.sun_moments};
+  for (int p = 0; p < 2; ++p) {
+    out[p]->transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass_[p]->handle());
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1,
+                            &set_[p], 0, nullptr);
+    vkCmdPushConstants(cmd, layout_->handle(), kCompute, 0, sizeof(EvsmPush), &push);
+    vkCmdDispatch(cmd, groups, groups, layers_);
+    out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  }
+  mark("evsm");
+}
+
+}  // namespace penumbra::render::passes
