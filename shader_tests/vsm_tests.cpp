@@ -368,6 +368,98 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
     EXPECT_NEAR(got2[0], 0.5f, 1e-4);
     EXPECT_NEAR(got2[1], 1.0f, 1e-4);
     EXPECT_LT(got2[2], 0.01f);
+
+    // The renderer's form reads a cascade's layer of an array (evsm_moments.comp's output):
+    // layer 1 holds the half plane, layers 0 and 2 the blocker everywhere. The array form at
+    // layer 1 is the 2D form bit for bit; at layer 0 every receiver is in shadow.
+    std::vector<float> layers;
+    for (int layer = 0; layer < 3; ++layer)
+      for (size_t i = 0; i < rg2.size(); i += 2) {
+        const bool half_plane = layer == 1;
+        layers.push_back(half_plane ? rg2[i] : rg2[0]);
+        layers.push_back(half_plane ? rg2[i + 1] : rg2[1]);
+      }
+    FloatTextureDesc adesc = desc;
+    adesc.layers = 3;
+    adesc.array = true;
+    ShaderFunction<float(Sampler2DArray, glm::vec3, int32_t, float, float, float, bool, bool)>
+        evsm2_array("penumbra/vsm.glsl", "evsm2_sample_shadow_array");
+    evsm2_array.bind(0, make_float_texture(adesc, layers));
+    std::vector<std::tuple<glm::vec3, int32_t, float, float, float, bool, bool>> ea;
+    for (int32_t layer : {1, 0})
+      for (float u : {u_edge, u_lit, u_dark})
+        ea.emplace_back(glm::vec3(u, 0.5f, receiver), layer, c.x, mv, 0.0f, reverse_z, true);
+    const auto gota = evsm2_array.run(ea);
+    for (size_t i = 0; i < 3; ++i) {
+      EXPECT_EQ(gota[i], got2[i]) << "layer 1, case " << i;
+      EXPECT_LT(gota[3 + i], 0.01f) << "layer 0 (all blocker), case " << i;
+    }
+  }
+}
+
+// The evsm pass's separable blur (evsm2_moments_box_x, then moments_box_y) against a C++ model
+// in double on a random 2-layer depth map, every texel, radii 0 to 3: reads clamp at the edges,
+// the box is centred (a shift by one texel fails), and each pass averages 2 r + 1 taps.
+TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
+  const int size = 12, layers = 2;
+  Rng rng(0xB10B);
+  std::vector<float> depth(size_t(size * size * layers));
+  for (float& d : depth) d = detail::uniform_scalar(rng, 0.05f, 0.95f);
+  FloatTextureDesc desc;
+  desc.width = desc.height = size;
+  desc.layers = layers;
+  desc.array = true;
+  ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, bool, bool)> box_x(
+      "penumbra/vsm.glsl", "evsm2_moments_box_x");
+  box_x.bind(0, make_float_texture(desc, depth));
+  auto at = [&](const std::vector<float>& v, int x, int y, int l, int channels, int c) {
+    x = std::clamp(x, 0, size - 1);
+    y = std::clamp(y, 0, size - 1);
+    return double(v[size_t(((l * size + y) * size + x) * channels + c)]);
+  };
+  for (int radius = 0; radius <= 3; ++radius) {
+    for (bool reverse_z : {true, false}) {
+      const float c = 20.0f;
+      std::vector<std::tuple<glm::ivec3, int32_t, int32_t, float, bool, bool>> cases;
+      for (int l = 0; l < layers; ++l)
+        for (int y = 0; y < size; ++y)
+          for (int x = 0; x < size; ++x)
+            cases.emplace_back(glm::ivec3(x, y, l), radius, size, c, reverse_z, false);
+      const auto got = box_x.run(cases);
+      std::vector<float> rg;  // the x pass's output, as the y pass reads it
+      for (size_t i = 0; i < cases.size(); ++i) {
+        const glm::ivec3 t = std::get<0>(cases[i]);
+        double m1 = 0.0, m2 = 0.0;
+        for (int k = -radius; k <= radius; ++k) {
+          const double w = ref::evsm_positive(at(depth, t.x + k, t.y, t.z, 1, 0), c, reverse_z);
+          m1 += w;
+          m2 += w * w;
+        }
+        m1 /= 2 * radius + 1;
+        m2 /= 2 * radius + 1;
+        ASSERT_NEAR(got[i].x, m1, 1e-5 * m1) << "texel " << t.x << ", " << t.y << ", " << t.z
+                                              << " radius " << radius;
+        ASSERT_NEAR(got[i].y, m2, 1e-5 * m2);
+        rg.insert(rg.end(), {got[i].x, got[i].y});
+      }
+      FloatTextureDesc mdesc = desc;
+      mdesc.channels = 2;
+      ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t)> box_y(
+          "penumbra/vsm.glsl", "moments_box_y");
+      box_y.bind(0, make_float_texture(mdesc, rg));
+      std::vector<std::tuple<glm::ivec3, int32_t, int32_t>> ycases;
+      for (const auto& cs : cases) ycases.emplace_back(std::get<0>(cs), radius, size);
+      const auto goty = box_y.run(ycases);
+      for (size_t i = 0; i < ycases.size(); ++i) {
+        const glm::ivec3 t = std::get<0>(ycases[i]);
+        glm::dvec2 m(0.0);
+        for (int k = -radius; k <= radius; ++k)
+          m += glm::dvec2(at(rg, t.x, t.y + k, t.z, 2, 0), at(rg, t.x, t.y + k, t.z, 2, 1));
+        m /= double(2 * radius + 1);
+        ASSERT_NEAR(goty[i].x, m.x, 1e-5 * m.x) << "texel " << t.x << ", " << t.y << ", " << t.z;
+        ASSERT_NEAR(goty[i].y, m.y, 1e-5 * m.y);
+      }
+    }
   }
 }
 
