@@ -297,6 +297,14 @@ TEST_F(ReloadTest, AParameterThatChangesWhatIsBuiltRebuildsAndKeepsReloading) {
   EXPECT_FALSE(s->renderer().built().has_pass("contact-shadows"));
   s->set("shadows.filter", "pcss");
   EXPECT_EQ(s->get("shadows.filter"), "pcss");
+  // A frame-time key that changes what the scene requires: evsm2 needs the moments pass, and
+  // leaving it drops the pass again.
+  EXPECT_FALSE(s->renderer().built().has_pass("evsm"));
+  s->set("shadows.filter", "evsm2");
+  EXPECT_TRUE(s->renderer().built().has_pass("evsm"));
+  s->render();
+  s->set("shadows.filter", "pcss");
+  EXPECT_FALSE(s->renderer().built().has_pass("evsm"));
   EXPECT_THROW(s->set("shadows.pcf_radius", "9"), Error);
   EXPECT_EQ(s->get("shadows.pcf_radius"), "1") << "a bad value leaves the parameter as it was";
   edit("render/tonemap.comp", kExposure, kHalfExposure);
