@@ -73,6 +73,16 @@ Bounds Scene::world_bounds() const {
   return instance_bounds(*this, false);
 }
 
+std::vector<Bounds> Scene::instance_world_bounds() const {
+  std::vector<Bounds> out;
+  out.reserve(instances.size());
+  for (const Instance& instance : instances)
+    out.push_back(instance.mesh < meshes.size()
+                      ? transform_bounds(meshes[instance.mesh].bounds, instance.transform)
+                      : Bounds{});
+  return out;
+}
+
 Bounds Scene::caster_bounds() const {
   return instance_bounds(*this, true);
 }

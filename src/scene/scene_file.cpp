@@ -161,8 +161,8 @@ void read_spot(const Reader& r, SpotLight& spot) {
 }
 
 void read_point(const Reader& r, PointLight& point) {
-  r.check_keys(
-      {"position", "color", "intensity", "range", "radius", "shadows", "resolution", "filter"});
+  r.check_keys({"position", "color", "intensity", "range", "radius", "shadows", "resolution",
+                "filter", "fit_to_camera"});
   point.position = r.required_vec3("position");
   point.color = r.vec3("color", point.color, kNonNegative);
   point.intensity = r.numberf("intensity", point.intensity, kNonNegative);
@@ -171,6 +171,7 @@ void read_point(const Reader& r, PointLight& point) {
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
   point.filter = local_filter(r);
+  point.fit_to_camera = r.boolean("fit_to_camera", point.fit_to_camera);
 }
 
 // [shadows], [contact] and [render] are the parameter table's rows and nothing else.

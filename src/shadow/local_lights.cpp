@@ -156,6 +156,21 @@ PointShadow fit_point_shadow(const glm::dvec3& light_position, const Camera& cam
   s.depth = config.depth;
   s.face_mask = 0;
 
+  // The world box of the view frustum (up to view_far): a visible receiver lies in it and in its
+  // object's box, so each object is clipped to it first. A ground plane under the light then
+  // marks only the faces that see its part in view, not every face its whole box touches.
+  Aabb frustum_box{glm::dvec3(std::numeric_limits<double>::max()),
+                   glm::dvec3(std::numeric_limits<double>::lowest())};
+  for (const double d : {camera.near, view_far}) {
+    for (const double sx : {-1.0, 1.0}) {
+      for (const double sy : {-1.0, 1.0}) {
+        const glm::dvec3 c = camera.position + d * (f + sx * tan_x * r + sy * tan_y * u);
+        frustum_box.min = glm::min(frustum_box.min, c);
+        frustum_box.max = glm::max(frustum_box.max, c);
+      }
+    }
+  }
+
   double far = 0.0;
   std::vector<bool> visible(objects.size(), false);
   for (std::size_t i = 0; i < objects.size(); ++i) {
@@ -167,9 +182,11 @@ PointShadow fit_point_shadow(const glm::dvec3& light_position, const Camera& cam
         break;
       }
     }
-    if (outside) continue;
+    const Aabb clipped{glm::max(objects[i].min, frustum_box.min),
+                       glm::min(objects[i].max, frustum_box.max)};
+    if (outside || glm::any(glm::greaterThan(clipped.min, clipped.max))) continue;
     visible[i] = true;
-    const auto light_corners = corners_relative(objects[i], light_position);
+    const auto light_corners = corners_relative(clipped, light_position);
     for (const glm::dvec3& c : light_corners) far = std::max(far, glm::length(c));
     for (std::uint32_t face = 0; face < 6; ++face) {
       const Basis rows = cube_face_rows(static_cast<CubeFace>(face));

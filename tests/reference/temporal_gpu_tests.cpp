@@ -2,11 +2,13 @@
 // still frame comparison against the reference cannot see.
 #include <gtest/gtest.h>
 
+#include <bit>
 #include <cmath>
 #include <glm/glm.hpp>
 
 #include <penumbra/core/error.hpp>
 #include <penumbra/reference/temporal.hpp>
+#include <penumbra/render/frame_pack.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -274,6 +276,76 @@ TEST_F(TemporalAccumulationGpu, ItCutsTheFlickerOfACameraMovingACentimetreAFrame
   EXPECT_LT(2 * changed_with, changed_without)
       << "with " << changed_with << ", without " << changed_without;
 }
+
+// ---- point lights fitted to the camera (fit_to_camera) ----------------------------------------
+class FittedPointLightGpu : public GpuTest {};
+
+// A point light over a yard, the camera behind the light's shoulder looking away from it: the
+// fitted cube draws only the faces that see what the camera sees (the others stay cleared) and
+// stores distances over the fitted range, and every shadow in view is the unfitted one's.
+constexpr const char* kLampYard = R"(
+name = "lamp-yard"
+[camera]
+position = [3, 2.5, 3]
+target = [9, 0, 9]
+fov_y = 50
+[[point]]
+position = [0, 3, 0]
+intensity = 60
+range = 40
+resolution = 1024
+[shadows]
+filter = "hard"
+[contact]
+steps = 0
+[[object]]
+mesh = "plane"
+size = [60, 60]
+casts_shadows = false
+[[object]]
+mesh = "box"
+size = [1, 1.5, 1]
+position = [6, 0.75, 5]
+[[object]]
+mesh = "box"
+size = [0.6, 2, 0.6]
+position = [5, 1, 8]
+[[object]]
+mesh = "sphere"
+radius = 0.7
+position = [8, 0.7, 6]
+[[object]]
+mesh = "box"
+size = [1, 1, 1]
+position = [-5, 0.5, -4]
+)";
+
+TEST_F(FittedPointLightGpu, SkippedFacesAndTheFittedRangeChangeNoVisibleShadow) {
+  scene::Scene s = scene::parse_scene(kLampYard, "lamp-yard.toml", ".");
+  scene::Scene fitted = s;
+  fitted.points[0].fit_to_camera = true;
+  render::FrameCaps caps;
+  caps.point_shadow_cubes = 1;
+  const render::PackedFrame packed = render::pack_frame(fitted, 320, 180, caps, 0);
+  const uint32_t mask = packed.point_shadows.at(0).face_mask;
+  EXPECT_LT(std::popcount(mask), 6) << "faces " << mask;
+  render::Renderer a(ctx(), s, small()), b(ctx(), fitted, small());
+  a.render(0);
+  b.render(0);
+  const auto va = a.read_visibility(render::point_visibility_slot(0));
+  const auto vb = b.read_visibility(render::point_visibility_slot(0));
+  ASSERT_EQ(va.size(), vb.size());
+  // Cast shadows in view: the ground (which casts none: normal alpha 0.5) where the boxes and
+  // the ball hide the lamp.
+  const render::GBuffer g = a.read_gbuffer();
+  size_t cast = 0;
+  for (size_t i = 0; i < va.size(); ++i) cast += g.normal_view[i].w == 0.5f && va[i] < 0.5f;
+  EXPECT_GT(cast, 500u) << "shadows on the ground in view";
+  // A receiver whose stored distance is quantized differently over the fitted range may flip
+  // at an edge: at most 0.1% of the pixels.
+  EXPECT_LE(count_differences(va, vb, 1.0f / 255.0f), va.size() / 1000);
+}
+
 
 }  // namespace
 }  // namespace penumbra::reference

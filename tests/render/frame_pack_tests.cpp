@@ -205,5 +205,30 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
   EXPECT_TRUE(g.spot_shadows.empty());
 }
 
+// A point light fitted to the camera (fit_to_camera, shadow::fit_point_shadow): in the space
+// scene looking out of the belt, away from the star, the faces behind the camera are not drawn;
+// looking at the star every face sees something; an unfitted light draws all six.
+TEST(PackFrame, AFittedPointLightDrawsOnlyTheFacesTheCameraSees) {
+  scene::Scene s = scene::load_scene(scene::find_scene("space"));
+  ASSERT_FALSE(s.points.empty());
+  auto faces = [](const PackedFrame& f) {
+    int n = 0;
+    for (int b = 0; b < 6; ++b) n += (f.point_shadows.at(0).face_mask >> b) & 1u;
+    return n;
+  };
+  s.points[0].fit_to_camera = false;
+  EXPECT_EQ(faces(pack_frame(s, 640, 360, caps_of(s), 0)), 6);
+  s.points[0].fit_to_camera = true;
+  EXPECT_EQ(faces(pack_frame(s, 640, 360, caps_of(s), 0)), 6) << "the shipped view sees the star";
+  scene::set_param(s, "camera.position", "[0, 2, 20]");
+  scene::set_param(s, "camera.target", "[0, 0, 40]");
+  const PackedFrame away = pack_frame(s, 640, 360, caps_of(s), 0);
+  EXPECT_GE(faces(away), 1);
+  EXPECT_LE(faces(away), 3) << "looking away from the star, the faces behind the camera";
+  // The fitted depth range spans what the camera may see, not the light's whole range.
+  const auto& p = away.point_shadows.at(0);
+  EXPECT_LT(p.depth_far - p.depth_near, double(s.points[0].range));
+}
+
 }  // namespace
 }  // namespace penumbra::render

@@ -825,6 +825,35 @@ TEST(Point, FitToCameraFrustumForAsteroidField) {
   EXPECT_TRUE(s.face_mask & (1u << static_cast<int>(CubeFace::negative_x)));
 }
 
+// A ground plane under a lamp, seen by a camera looking away from the lamp: the plane's box
+// touches every face but +Y, yet only the part in view needs a face. Each object is clipped to
+// the view's box first, so the faces behind the camera are not rendered, and every visible
+// point is still in a rendered face and inside the depth range (check_fit).
+TEST(Point, FitClipsLargeReceiversToTheView) {
+  AsteroidField field;
+  field.star = glm::dvec3(0.0, 3.0, 0.0);
+  field.camera.position = glm::dvec3(3.0, 2.5, 3.0);
+  field.camera.forward = glm::normalize(glm::dvec3(6.0, -2.5, 6.0));
+  field.camera.up = glm::dvec3(0.0, 1.0, 0.0);
+  field.camera.fov_y = 0.9;
+  field.camera.aspect = 16.0 / 9.0;
+  field.camera.near = 0.1;
+  field.camera.far = 400.0;
+  field.objects.push_back(Aabb{glm::dvec3(-30.0, -0.01, -30.0), glm::dvec3(30.0, 0.0, 30.0)});
+  field.objects.push_back(Aabb{glm::dvec3(5.5, 0.0, 4.5), glm::dvec3(6.5, 1.5, 5.5)});
+  field.objects.push_back(Aabb{glm::dvec3(-5.5, 0.0, -4.5), glm::dvec3(-4.5, 1.0, -3.5)});
+  for (const DepthConvention depth : kDepths) {
+    int visible = 0;
+    check_fit(field, depth, 61, &visible);
+    EXPECT_GT(visible, 4);
+  }
+  const PointShadow s = fit_point_shadow(field.star, field.camera, 60.0, field.objects, {});
+  EXPECT_FALSE(s.face_mask & (1u << static_cast<int>(CubeFace::negative_x))) << s.face_mask;
+  EXPECT_FALSE(s.face_mask & (1u << static_cast<int>(CubeFace::negative_z))) << s.face_mask;
+  EXPECT_FALSE(s.face_mask & (1u << static_cast<int>(CubeFace::positive_y))) << s.face_mask;
+  EXPECT_TRUE(s.face_mask & (1u << static_cast<int>(CubeFace::positive_x))) << s.face_mask;
+}
+
 TEST(Point, FitWithNothingVisibleRendersNoFace) {
   AsteroidField field = make_field(glm::dvec3(0.0, 1000.0, 0.0), 59);
   field.camera.forward = glm::dvec3(0.0, 0.0, -1.0);  // looking away from the field

@@ -119,6 +119,10 @@ struct PointLight {
   bool shadows = true;
   std::uint32_t resolution = 512;  // of each cube face
   std::optional<Filter> filter;    // this light's filter; unset: [shadows] filter
+  // The cube fit to what the camera sees (shadow::fit_point_shadow): only the faces that see an
+  // object in the camera's view up to shadows.max_distance are drawn, and the stored linear
+  // depth spans those objects instead of the light's range.
+  bool fit_to_camera = false;
 };
 
 // One enum for the concept: the cascade math's (docs/cascades.md).
@@ -223,6 +227,8 @@ struct Scene {
 
   // Of all instances, transformed to world space.
   Bounds world_bounds() const;
+  // Each instance's world bounds (instances with a missing mesh: empty bounds).
+  std::vector<Bounds> instance_world_bounds() const;
   // Of the instances with casts_shadows.
   Bounds caster_bounds() const;
 

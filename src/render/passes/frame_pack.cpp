@@ -57,7 +57,8 @@ float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> 
                                                       : -1.0f;
 }
 
-void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedFrame& out) {
+void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t height,
+                       const FrameCaps& caps, PackedFrame& out) {
   const bool reverse_z = scene.shadows.reverse_z;
   const glm::dvec3& origin = out.origin;
   out.spot_gpu.assign(kMaxSpotLights, shadow::SpotShadowGpu{});
@@ -100,7 +101,22 @@ void pack_local_lights(const scene::Scene& scene, const FrameCaps& caps, PackedF
       shadow::PointShadowConfig cfg;
       cfg.resolution = p.resolution;
       cfg.depth = depth_of(reverse_z);
-      out.point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
+      if (p.fit_to_camera) {
+        // The objects the camera may see, and everything that may shadow them.
+        std::vector<shadow::Aabb> objects;
+        for (const scene::Bounds& b : scene.instance_world_bounds()) {
+          if (b.empty()) continue;
+          shadow::Aabb a;
+          a.min = to_d(b.min);
+          a.max = to_d(b.max);
+          objects.push_back(a);
+        }
+        out.point_shadows.push_back(shadow::fit_point_shadow(
+            pl.position, frame_camera(scene, width, height), scene.shadows.max_distance, objects,
+            cfg));
+      } else {
+        out.point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
+      }
       out.point_gpu[point_maps_used] = shadow::pack_point_shadow(out.point_shadows.back(), origin);
       l.params.y = float(point_maps_used++);
     }
@@ -242,7 +258,7 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
     frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);
     frame.sun_color = glm::vec4(scene.sun->color, scene.sun->shadows ? 1.0f : 0.0f);
   }
-  pack_local_lights(scene, caps, out);
+  pack_local_lights(scene, width, height, caps, out);
   if (caps.sun_shadows && scene.sun) pack_sun(scene, width, height, caps, out);
   return out;
 }

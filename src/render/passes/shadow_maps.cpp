@@ -2,6 +2,8 @@
 // spot maps and the point cubes are one list of views (an image, its layers, the caster
 // pipelines and the push index of each layer), recorded the same way.
 
+#include <algorithm>
+
 #include "passes.hpp"
 
 namespace penumbra::render::passes {
@@ -11,6 +13,9 @@ struct ShadowMapPass::View {
   gpu::Image* target = nullptr;
   std::function<uint32_t(const PackedFrame&)> layers;
   std::function<glm::uvec4(uint32_t)> index;
+  // Whether layer l is drawn this frame (a fitted point light draws only the faces that see
+  // what the camera sees; the others are cleared to the far depth: lit). Unset: every layer.
+  std::function<bool(const PackedFrame&, uint32_t)> draws;
   std::unique_ptr<gpu::PipelineLayout> layout;
   std::unique_ptr<gpu::GraphicsPipeline> opaque, masked;
   VkDescriptorSet set = VK_NULL_HANDLE;
@@ -122,6 +127,9 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     // Layer 6·i + f is face f of light i. One pipeline draws opaque and masked casters: its
     // fragment stage writes the linear distance and alpha-tests.
     v.layers = [](const PackedFrame& f) { return 6 * uint32_t(f.point_shadows.size()); };
+    v.draws = [](const PackedFrame& f, uint32_t l) {
+      return (f.point_shadows[l / 6].face_mask >> (l % 6) & 1u) != 0;
+    };
     v.index = [](uint32_t l) { return glm::uvec4(l % 6, l / 6, 0, 0); };
     v.caster_bias = false;
     v.layout = ubo_layout(r);
@@ -140,7 +148,10 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                      pipe = std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
                    });
     v.set = ubo_set(r, *v.layout, point_ubo);
-    r.report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces");
+    const bool fitted = std::any_of(r.scene.points.begin(), r.scene.points.end(),
+                                    [](const scene::PointLight& p) { return p.shadows && p.fit_to_camera; });
+    r.report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces" +
+                              (fitted ? " (fitted to the camera: the faces it sees)" : ""));
   }
 }
 
@@ -170,11 +181,13 @@ void ShadowMapPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& m
     for (uint32_t l = 0; l < layers; ++l) {
       begin_rendering(cmd, r, target.desc().width, target.desc().width, VK_NULL_HANDLE, {},
                       target.layer_view(l), VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
-      if (v.caster_bias) vkCmdSetDepthBias(cmd, 0.0f, 0.0f, bias_sign * 1.0f);
-      vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
-                              &v.set, 0, nullptr);
-      draw_meshes(cmd, r, *v.layout, v.opaque->handle(), masked ? masked->handle() : VK_NULL_HANDLE,
-                  true, v.index(l));
+      if (!v.draws || v.draws(r.packed, l)) {
+        if (v.caster_bias) vkCmdSetDepthBias(cmd, 0.0f, 0.0f, bias_sign * 1.0f);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
+                                &v.set, 0, nullptr);
+        draw_meshes(cmd, r, *v.layout, v.opaque->handle(),
+                    masked ? masked->handle() : VK_NULL_HANDLE, true, v.index(l));
+      }
       vkCmdEndRendering(cmd);
     }
     target.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
