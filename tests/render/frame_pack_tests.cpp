@@ -211,6 +211,7 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
 TEST(PackFrame, AFittedPointLightDrawsOnlyTheFacesTheCameraSees) {
   scene::Scene s = scene::load_scene(scene::find_scene("space"));
   ASSERT_FALSE(s.points.empty());
+  EXPECT_TRUE(s.points[0].fit_to_camera) << "the space scene's star is fitted (space.toml)";
   auto faces = [](const PackedFrame& f) {
     int n = 0;
     for (int b = 0; b < 6; ++b) n += (f.point_shadows.at(0).face_mask >> b) & 1u;
