@@ -133,7 +133,8 @@ void main() {
   vec3 to_light = shadow.light_dir_angular.xyz;
   float view_depth = dot(p - shadow.camera_position.xyz, shadow.camera_forward.xyz);
   int count = int(shadow.counts.x);
-  bool by_containment = shadow.modes.x == 1u;
+  // Containment, and always for a clipmap (its levels are nested squares around the camera).
+  bool by_containment = shadow.modes.x == 1u || shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP;
   int c = by_containment ? select_cascade_containing(p, count)
                          : select_cascade_by_depth(view_depth, shadow.splits, count);
   float visibility = 1.0;
@@ -155,7 +156,10 @@ void main() {
       float next = cascade_visibility(c + 1, p, n, to_light, vec2(pixel), next_penumbra);
       visibility = mix(visibility, next, blend);
     }
-    float fade = shadow_distance_fade(view_depth, shadow.selection.z, shadow.selection.w);
+    // A clipmap ends where its coarsest level does (c == count: lit), not at a view distance.
+    float fade = shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP
+                     ? 0.0
+                     : shadow_distance_fade(view_depth, shadow.selection.z, shadow.selection.w);
     visibility = mix(visibility, 1.0, fade);  // fade: how far shadows have faded to lit
   }
   // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.

@@ -201,6 +201,7 @@ struct Renderer::Impl {
     caps.contact_pass = res.contact_mask != nullptr;
     caps.sun_shadows = res.req.sun_shadows;
     caps.sun_moments = res.req.sun_moments;
+    caps.sun_layers = res.req.cascades;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;
     res.packed = pack_frame(scene, res.width, res.height, caps, frame_index);

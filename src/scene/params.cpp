@@ -115,6 +115,7 @@ std::vector<Param> make_params() {
   const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson", "evsm2"};
   const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
   const std::vector<std::string_view> selections{"depth", "containment"};
+  const std::vector<std::string_view> layouts{"cascades", "clipmap"};
   const std::vector<std::string_view> views{"lit",          "shadow_factor", "cascades",
                                             "contact_mask", "texel_density", "penumbra"};
   const std::vector<Row> rows = {
@@ -230,6 +231,21 @@ std::vector<Param> make_params() {
        "how a receiver's cascade is chosen: by view distance, or the finest cascade whose map "
        "holds it with the filter's reach (docs/cascades.md)",
        selections},
+      {"shadows.layout", T::choice, kAny, field<&S::shadows, &ShadowSettings::layout>(), A::frame,
+       "the sun's maps: `cascades` over view distance, or a `clipmap` of camera-centred squares "
+       "selected by position (docs/cascades.md)",
+       layouts},
+      {"shadows.clipmap_levels", T::integer, closed(1, 8),
+       field<&S::shadows, &ShadowSettings::clipmap_levels>(), A::rebuild,
+       "`clipmap`: levels, level i 2^i times as wide as level 0"},
+      {"shadows.clipmap_extent",
+       T::number,
+       kPositive,
+       field<&S::shadows, &ShadowSettings::clipmap_extent>(),
+       A::frame,
+       "metres: `clipmap` level 0's full width",
+       {},
+       slider(1.0, 256.0)},
       {"shadows.snap_to_texels", T::boolean, kAny,
        field<&S::shadows, &ShadowSettings::snap_to_texels>(), A::frame,
        "cascades move by whole texels, so static edges do not shimmer; off only to compare"},

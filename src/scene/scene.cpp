@@ -90,7 +90,9 @@ Bounds Scene::caster_bounds() const {
 Scene::Requirements Scene::requirements() const {
   Requirements r;
   r.sun_shadows = sun.has_value() && sun->shadows;
-  r.cascades = r.sun_shadows ? shadows.cascades : 0;
+  r.cascades = !r.sun_shadows                               ? 0
+                : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
+                                                          : shadows.cascades;
   for (const SpotLight& spot : spots) r.spot_shadow_maps += spot.shadows ? 1 : 0;
   for (const PointLight& point : points) r.point_shadow_cubes += point.shadows ? 1 : 0;
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();

@@ -152,6 +152,64 @@ TEST_F(FrameTest, SunShadowMapsHoldTheCasters) {
   EXPECT_GT(busiest, size_t{s.shadows.resolution} * s.shadows.resolution / 1000);
 }
 
+// The clipmap layout (shadows.layout = clipmap): its levels are squares around the camera's
+// position in light space, so turning the camera (same position, another target) leaves every
+// level's map bit for bit as it was. Cascades follow the view frustum and change.
+TEST_F(FrameTest, ClipmapLevelsDoNotMoveWhenTheCameraTurns) {
+  for (const char* layout : {"clipmap", "cascades"}) {
+    SCOPED_TRACE(layout);
+    scene::Scene s = small("default");
+    s.shadows.layout =
+        std::string(layout) == "clipmap" ? scene::ShadowLayout::clipmap : scene::ShadowLayout::cascades;
+    s.shadows.clipmap_levels = 5;
+    s.shadows.resolution = 512;
+    render::Renderer r(ctx(), s);
+    EXPECT_EQ(r.built().has_pass("sun-shadow: 5"), std::string(layout) == "clipmap")
+        << r.built().to_string();
+    const uint32_t layers = r.scene().requirements().cascades;
+    r.render(0);
+    std::vector<std::vector<float>> before;
+    for (uint32_t l = 0; l < layers; ++l) before.push_back(r.read_sun_shadow_map(l));
+    r.scene().camera.target += glm::vec3(1.5f, 0.4f, -0.8f);  // yaw and pitch
+    r.render(1);
+    size_t changed = 0;
+    for (uint32_t l = 0; l < layers; ++l) changed += r.read_sun_shadow_map(l) != before[l];
+    if (std::string(layout) == "clipmap") {
+      EXPECT_EQ(changed, 0u) << "levels whose map changed";
+    } else {
+      EXPECT_GT(changed, 0u) << "the cascades follow the view";
+    }
+  }
+}
+
+// A clipmap ends where its coarsest level does, not at a view distance: fade_band (the
+// cascades' fade towards max_distance) changes nothing. With the view-distance fade, the
+// grazing sun's long shadows were cut off past the last level's radius.
+TEST_F(FrameTest, ClipmapShadowsDoNotFadeWithViewDistance) {
+  auto visibility = [&](const char* layout, float fade_band) {
+    scene::Scene s = small("grazing");
+    s.shadows.layout = std::string(layout) == "clipmap" ? scene::ShadowLayout::clipmap
+                                                        : scene::ShadowLayout::cascades;
+    s.shadows.clipmap_levels = 2;
+    s.shadows.max_distance = 20.0f;
+    s.shadows.fade_band = fade_band;
+    render::Renderer r(ctx(), s);
+    r.render(0);
+    const auto info = r.read_shadow_info();
+    std::vector<float> v;
+    for (size_t i = 0; i < info.size(); i += 4) v.push_back(info[i]);
+    return v;
+  };
+  const auto clip = visibility("clipmap", 0.0f);
+  EXPECT_EQ(clip, visibility("clipmap", 1.0f));
+  EXPECT_NE(visibility("cascades", 0.0f), visibility("cascades", 1.0f));
+  // The long shadows reach past the levels' radii (16 m): they are there (1454 pixels here;
+  // faded at the last radius, 18 were left).
+  size_t shadowed = 0;
+  for (float v : clip) shadowed += v < 0.5f;
+  EXPECT_GT(shadowed, 1000u);
+}
+
 TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
   {
     render::Renderer r(ctx(), small("default"));

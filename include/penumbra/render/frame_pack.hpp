@@ -25,6 +25,7 @@ struct FrameCaps {
   std::uint32_t point_shadow_cubes = 0;
   bool sun_shadows = false;
   bool sun_moments = false;  // the evsm pass was built (filter = evsm2 is honoured)
+  std::uint32_t sun_layers = 8;  // layers of the sun's map (cascades or clipmap levels)
 };
 
 // One instance, ready to draw: its mesh and push constants (model relative to the origin).

@@ -128,6 +128,7 @@ struct PointLight {
 // One enum for the concept: the cascade math's (docs/cascades.md).
 using CascadeFit = shadow::CascadeFit;
 using CascadeSelection = shadow::CascadeSelection;
+using ShadowLayout = shadow::ShadowLayout;
 
 // The cascade layout's defaults are the shadow library's (shadow::ShadowConfig), defined there
 // once; the scene adds the filter and the biases. Ranges, meanings and keys: params.hpp.
@@ -141,6 +142,11 @@ struct ShadowSettings {
   std::uint32_t resolution = kCascadeDefaults.resolution;
   CascadeFit fit = kCascadeDefaults.fit;
   CascadeSelection selection = kCascadeDefaults.selection;
+  // The sun's maps: PSSM cascades over view distance, or a clipmap (camera-centred nested
+  // squares, level i 2^i times as wide as level 0, selected by position; docs/cascades.md).
+  ShadowLayout layout = ShadowLayout::cascades;
+  std::uint32_t clipmap_levels = 6;  // in [1, 8]
+  float clipmap_extent = 16.0f;      // metres: the full width of level 0, > 0
   bool snap_to_texels = kCascadeDefaults.snap_to_texels;  // cascades move by whole texels
   int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 5]
   // PCF and Poisson keep their world width across cascades (a disk sized in cascade 0's texels).
@@ -235,7 +241,8 @@ struct Scene {
   // What the scene requires; the renderer creates passes, images and variants only for these.
   struct Requirements {
     bool sun_shadows = false;              // a sun with shadows = true
-    std::uint32_t cascades = 0;            // shadows.cascades if sun_shadows, else 0
+    // sun_shadows: shadows.cascades, or shadows.clipmap_levels with the clipmap layout; else 0
+    std::uint32_t cascades = 0;
     std::uint32_t spot_shadow_maps = 0;    // spots with shadows = true
     std::uint32_t point_shadow_cubes = 0;  // points with shadows = true
     bool contact_pass = false;             // contact.step_count > 0 and the scene has a light

@@ -151,7 +151,22 @@ void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const 
   shadow::Aabb bounds;
   bounds.min = to_d(b.min);
   bounds.max = to_d(b.max);
-  out.cascades = shadow::compute_cascades(cfg, frame_camera(scene, width, height), light, bounds);
+  if (sh.layout == scene::ShadowLayout::clipmap) {
+    shadow::ClipmapConfig clip;
+    clip.level_count = std::min(sh.clipmap_levels, caps.sun_layers);
+    clip.base_extent = sh.clipmap_extent;
+    clip.resolution = sh.resolution;
+    clip.depth = cfg.depth;
+    clip.snap_to_texels = sh.snap_to_texels;
+    clip.pcss = cfg.pcss;
+    out.cascades = shadow::compute_clipmap(clip, to_d(scene.camera.position), light, bounds);
+    out.cascades.fade_fraction = sh.fade_band;
+    out.cascades.camera_forward = frame_camera(scene, width, height).forward;
+  } else {
+    cfg.cascade_count = std::min(sh.cascades, caps.sun_layers);
+    out.cascades =
+        shadow::compute_cascades(cfg, frame_camera(scene, width, height), light, bounds);
+  }
   out.shadow = shadow::pack_shadow(out.cascades, out.origin);
 }
 
