@@ -110,6 +110,14 @@ Scene::Requirements Scene::requirements() const {
   return r;
 }
 
+namespace {
+// One texture whichever material loaded it: the same object, or the same file.
+bool same_mask_image(const std::shared_ptr<const MaskImage>& a,
+                     const std::shared_ptr<const MaskImage>& b) {
+  return a && b && (a == b || a->source == b->source);
+}
+}  // namespace
+
 std::vector<std::shared_ptr<const MaskImage>> Scene::mask_images() const {
   std::vector<std::shared_ptr<const MaskImage>> images;
   for (std::uint32_t m = 0; m < materials.size(); ++m) {
@@ -119,7 +127,7 @@ std::vector<std::shared_ptr<const MaskImage>> Scene::mask_images() const {
     const bool used = std::any_of(instances.begin(), instances.end(),
                                   [m](const Instance& i) { return i.material == m; });
     const bool listed = std::any_of(images.begin(), images.end(), [&](const auto& image) {
-      return image == mat.mask_image || image->source == mat.mask_image->source;
+      return same_mask_image(image, mat.mask_image);
     });
     if (used && !listed) images.push_back(mat.mask_image);
   }
@@ -127,15 +135,15 @@ std::vector<std::shared_ptr<const MaskImage>> Scene::mask_images() const {
 }
 
 int Scene::mask_image_index(std::uint32_t material) const {
-  if (material >= materials.size() || !materials[material].mask_image ||
-      materials[material].mask != MaskPattern::texture)
+  return mask_image_index(material, mask_images());
+}
+
+int Scene::mask_image_index(std::uint32_t material,
+                            const std::vector<std::shared_ptr<const MaskImage>>& images) const {
+  if (material >= materials.size() || materials[material].mask != MaskPattern::texture)
     return -1;
-  const auto images = mask_images();
-  for (size_t i = 0; i < images.size(); ++i) {
-    if (images[i] == materials[material].mask_image ||
-        images[i]->source == materials[material].mask_image->source)
-      return int(i);
-  }
+  for (size_t i = 0; i < images.size(); ++i)
+    if (same_mask_image(images[i], materials[material].mask_image)) return int(i);
   return -1;
 }
 

@@ -257,6 +257,9 @@ struct Scene {
   // mask texture array), and where a material's is in that list (-1: none).
   std::vector<std::shared_ptr<const MaskImage>> mask_images() const;
   int mask_image_index(std::uint32_t material) const;
+  // The same against a list mask_images() returned (computed once for many materials).
+  int mask_image_index(std::uint32_t material,
+                       const std::vector<std::shared_ptr<const MaskImage>>& images) const;
 };
 
 // Moves the whole scene by `offset` metres: the camera's position and target, every instance,

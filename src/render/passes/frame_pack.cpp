@@ -24,12 +24,8 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
   draws.reserve(scene.instances.size());
   const auto mask_images = scene.mask_images();
   std::vector<std::uint32_t> mask_slot(scene.materials.size(), 0);
-  for (size_t m = 0; m < scene.materials.size(); ++m)
-    for (size_t i = 0; i < mask_images.size(); ++i)
-      if (scene.materials[m].mask_image == mask_images[i] ||
-          (scene.materials[m].mask_image &&
-           scene.materials[m].mask_image->source == mask_images[i]->source))
-        mask_slot[m] = std::uint32_t(i);
+  for (std::uint32_t m = 0; m < scene.materials.size(); ++m)
+    mask_slot[m] = std::uint32_t(std::max(0, scene.mask_image_index(m, mask_images)));
   for (const auto& inst : scene.instances) {
     const auto& mat = scene.materials.at(inst.material);
     Draw d{};
