@@ -1,0 +1,132 @@
+// Function-level tests of shaders/penumbra/sphere_shadow.glsl: the hidden fraction of a light
+// cap against a double-precision quadrature of the cap (reference/sphere_ref.hpp), over light
+// half-angles from 1e-4 (a small sun) to 1.4 rad (a receiver beside a big lamp), occluders from
+// specks to the receiver's own horizon; the world-space forms for sphere lights and the sun; and
+// the exact ends (clear, covered, hard lights, degenerate input).
+//
+// Tolerance: 0.002 absolute, measured at most 0.0012 on lavapipe (the planar form at the smallest
+// lights, where g / a and b / a round at 1e4: the chord moves by 1e-3 of the light's radius). The
+// sweep fails by 0.86 with the spherical form used for every light, by 0.096 with the planar form
+// for every light, and by 0.14 and more with the triangle's excess halved.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <glm/glm.hpp>
+#include <limits>
+#include <numbers>
+#include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/generators.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/shader_function.hpp>
+#include <tuple>
+#include <vector>
+
+#include "reference/sphere_ref.hpp"
+
+namespace penumbra::testing {
+namespace {
+
+constexpr const char* kSphere = "penumbra/sphere_shadow.glsl";
+constexpr double kHalfPi = 0.5 * std::numbers::pi;
+constexpr double kTolerance = 0.002;
+
+class SphereShadowTest : public GpuTest {};
+
+double log_uniform(Rng& rng, double lo, double hi) {
+  return std::exp(std::log(lo) + (std::log(hi) - std::log(lo)) * rng.next_unit());
+}
+
+TEST_F(SphereShadowTest, CapOcclusionMatchesAQuadratureOfTheLightCap) {
+  ShaderFunction<float(float, float, float)> f(kSphere, "sphere_cap_occlusion");
+  Rng rng(4111);
+  std::vector<std::tuple<float, float, float>> cases;
+  std::vector<float> expected;
+  for (int i = 0; i < 3000; ++i) {
+    const double a = log_uniform(rng, 1e-4, 1.4);
+    // Occluders from a fraction of the light to the receiver's horizon (pi/2, exactly in a few).
+    const int kind = int(rng.below(4));
+    const double b = kind == 0   ? std::min(a * 3.0, kHalfPi) * rng.next_unit()
+                     : kind == 1 ? kHalfPi * rng.next_unit()
+                     : kind == 2 ? kHalfPi
+                                 : log_uniform(rng, 1e-5, 1e-2);
+    // Mostly the partial range (|a - b|, a + b), a little of either side.
+    const double lo = std::max(0.0, std::abs(a - b) - 0.1 * a);
+    const double hi = std::min(a + b + 0.1 * a, std::numbers::pi);
+    const auto fa = float(a), fb = float(b), fg = float(lo + (hi - lo) * rng.next_unit());
+    cases.emplace_back(fa, fb, fg);
+    expected.push_back(float(sphere_ref::cap_occlusion(fa, fb, fg)));
+  }
+  const auto got = f.run(cases);
+  for (size_t i = 0; i < got.size(); ++i)
+    if (std::abs(got[i] - expected[i]) > kTolerance)
+      std::printf("DBG %zu a=%.9g b=%.9g g=%.9g exp=%g got=%g\n", i, std::get<0>(cases[i]),
+                  std::get<1>(cases[i]), std::get<2>(cases[i]), expected[i], got[i]);
+  PENUMBRA_EXPECT_ALL_NEAR(expected, got, Tolerance::absolute(kTolerance));
+}
+
+TEST_F(SphereShadowTest, TheEndsAreExactAndBadInputIsLit) {
+  ShaderFunction<float(float, float, float)> f(kSphere, "sphere_cap_occlusion");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const std::vector<std::tuple<float, float, float>> cases{
+      {0.01f, 0.2f, 0.2101f},  // clear: the caps do not meet
+      {0.3f, 0.2f, 0.5f},      // touching
+      {0.01f, 0.2f, 0.189f},   // the light wholly behind the occluder
+      {0.3f, kHalfPi, 1.0f},   // behind the receiver's own horizon
+      {0.0f, 0.2f, 0.1999f},   // a point light: hidden
+      {0.0f, 0.2f, 0.2001f},   // a point light: seen
+      {0.2f, 0.1f, 0.05f},     // the occluder inside the light: (sin(b/2) / sin(a/2))^2
+      {nan, 0.2f, 0.1f},       {0.1f, nan, 0.1f}, {0.1f, 0.2f, nan},
+      {0.1f, 0.0f, 0.0f},      // an occluder of no size
+  };
+  const double inside = std::pow(std::sin(0.05) / std::sin(0.1), 2.0);
+  const std::vector<float> expected{0, 0, 1, 1, 1, 0, float(inside), 0, 0, 0, 0};
+  PENUMBRA_EXPECT_ALL_NEAR(expected, f.run(cases), Tolerance::absolute(1e-6));
+}
+
+TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
+  ShaderFunction<float(glm::vec3, glm::vec3, float, glm::vec4)> light(kSphere,
+                                                                        "sphere_light_occlusion");
+  ShaderFunction<float(glm::vec3, glm::vec3, float, glm::vec4)> sun(kSphere,
+                                                                     "sun_sphere_occlusion");
+  Rng rng(977);
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, glm::vec4>> lc, sc;
+  std::vector<float> le, se;
+  auto unit = [&] {
+    const double z = 2.0 * rng.next_unit() - 1.0, phi = 2.0 * std::numbers::pi * rng.next_unit();
+    const double s = std::sqrt(1.0 - z * z);
+    return glm::dvec3(s * std::cos(phi), z, s * std::sin(phi));
+  };
+  for (int i = 0; i < 2000; ++i) {
+    // A receiver near an occluder, the light beyond it along a direction near the occluder's.
+    const glm::dvec3 p = 20.0 * (glm::dvec3(rng.next_unit(), rng.next_unit(), rng.next_unit()) -
+                                 0.5);
+    const double r = log_uniform(rng, 0.05, 3.0);
+    const double d = r * (i % 10 == 0 ? 1.0 : 1.0 + log_uniform(rng, 1e-3, 20.0));
+    const glm::dvec3 toward = unit();
+    const glm::dvec3 o = p + d * toward;
+    const glm::dvec3 dir = glm::normalize(toward + 0.3 * (r / d + 0.05) * unit());
+    const double dl = d * (0.5 + 3.0 * rng.next_unit());  // sometimes in front of the occluder
+    // Up to a light that fills 64 degrees of the receiver's sky.
+    const double R = i % 7 == 0 ? 0.0 : std::min(log_uniform(rng, 0.01, 2.0), 0.9 * dl);
+    const glm::dvec3 c = p + dl * dir;
+    const glm::vec4 sphere{glm::vec3(o), float(r)};
+    lc.emplace_back(glm::vec3(p), glm::vec3(c), float(R), sphere);
+    le.push_back(float(sphere_ref::sphere_light_occlusion(glm::vec3(p), glm::vec3(c), float(R),
+                                                          glm::vec3(o), float(r))));
+    const double theta = i % 7 == 0 ? 0.0 : log_uniform(rng, 1e-3, 0.05);
+    sc.emplace_back(glm::vec3(p), glm::vec3(dir), float(theta), sphere);
+    se.push_back(float(sphere_ref::sun_sphere_occlusion(glm::vec3(p), glm::vec3(glm::vec3(dir)),
+                                                        float(theta), glm::vec3(o), float(r))));
+  }
+  // Hard lights (every 7th case) are a point test: a receiver within a rounding of the silhouette
+  // could go either way; the seeded sweep has none there.
+  PENUMBRA_EXPECT_ALL_NEAR(le, light.run(lc), Tolerance::absolute(kTolerance));
+  PENUMBRA_EXPECT_ALL_NEAR(se, sun.run(sc), Tolerance::absolute(kTolerance));
+  // An occluder wholly beyond the light hides nothing; a receiver at its centre is hidden.
+  EXPECT_EQ(light(glm::vec3(0), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 0.0f);
+  EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
+  EXPECT_EQ(sun(glm::vec3(0, 0, 7), glm::vec3(0, 0, 1), 0.01f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
+}
+
+}  // namespace
+}  // namespace penumbra::testing
