@@ -178,6 +178,8 @@ struct Renderer::Impl {
     std::unique_ptr<Pass> local_resolve;
     if (req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0)
       local_resolve = std::make_unique<LocalShadowResolvePass>(res, *shadow_maps);
+    std::unique_ptr<Pass> spheres;  // after the resolves, whose images it multiplies
+    if (req.analytic_spheres > 0) spheres = std::make_unique<SphereShadowPass>(res, *shadow_maps);
     std::unique_ptr<Pass> temporal;  // before the forward pass, which reads its images
     if (req.temporal) temporal = std::make_unique<TemporalShadowPass>(res);
     std::unique_ptr<Pass> contact;
@@ -189,6 +191,7 @@ struct Renderer::Impl {
     if (evsm) passes.push_back(std::move(evsm));
     if (resolve) passes.push_back(std::move(resolve));
     if (local_resolve) passes.push_back(std::move(local_resolve));
+    if (spheres) passes.push_back(std::move(spheres));
     if (temporal) passes.push_back(std::move(temporal));
     if (contact) passes.push_back(std::move(contact));
     passes.push_back(std::move(forward));
@@ -206,6 +209,8 @@ struct Renderer::Impl {
     caps.point_shadow_cubes = res.req.point_shadow_cubes;
     res.packed = pack_frame(scene, res.width, res.height, caps, frame_index);
     res.frame_ubo.write(std::as_bytes(std::span(&res.packed.frame, 1)));
+    if (res.req.analytic_spheres > 0)
+      res.sphere_ubo.write(std::as_bytes(std::span(res.packed.analytic_spheres)));
     shadow_maps->upload(res.packed);
     if (res.req.temporal) update_temporal();
   }

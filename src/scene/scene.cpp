@@ -107,7 +107,21 @@ Scene::Requirements Scene::requirements() const {
   }
   r.mask_textures = std::uint32_t(mask_images().size());
   r.sun_moments = r.sun_shadows && shadows.filter == Filter::evsm2;
+  if (r.sun_shadows || r.spot_shadow_maps > 0 || r.point_shadow_cubes > 0) {
+    r.analytic_spheres = std::uint32_t(analytic_spheres().size());
+  }
   return r;
+}
+
+std::vector<glm::vec4> Scene::analytic_spheres() const {
+  std::vector<glm::vec4> spheres;
+  for (const Instance& instance : instances) {
+    if (!(instance.analytic_sphere_radius > 0.0f)) continue;
+    // A uniform scale: any column's length is the scale.
+    const float scale = glm::length(glm::vec3(instance.transform[0]));
+    spheres.emplace_back(glm::vec3(instance.transform[3]), instance.analytic_sphere_radius * scale);
+  }
+  return spheres;
 }
 
 namespace {

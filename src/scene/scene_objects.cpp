@@ -76,8 +76,12 @@ const std::vector<std::string_view> kShapeKeys{"size",     "subdivisions", "radi
 std::vector<std::string_view> shape_keys(std::string_view kind, bool scatter) {
   if (kind == "plane") return {"size", "subdivisions"};
   if (kind == "box" || kind == "table") return {"size"};
-  if (kind == "sphere") return {"radius", "segments", "rings"};
-  if (kind == "post") return {"radius", "height", "segments"};
+  // A scatter's `radius` is where it places instances: its spheres and posts keep their default
+  // radius and take their size from `scale`.
+  if (kind == "sphere") return scatter ? std::vector<std::string_view>{"segments", "rings"}
+                                       : std::vector<std::string_view>{"radius", "segments", "rings"};
+  if (kind == "post") return scatter ? std::vector<std::string_view>{"height", "segments"}
+                                     : std::vector<std::string_view>{"radius", "height", "segments"};
   if (kind == "chair") return {};
   // model: and file:
   if (scatter) return {"size"};
@@ -111,7 +115,42 @@ std::string hex_float(float v) {
 struct MeshUse {
   std::uint32_t mesh = 0;
   glm::mat4 normalize{1.0f};  // applied before the object's own transform
+  float sphere_radius = 0.0f;  // mesh = "sphere": its radius (about the object's origin)
 };
+
+// `analytic_shadow = true`: the instance's shadow is computed in closed form as a sphere's
+// (penumbra/sphere_shadow.glsl) instead of being drawn into the shadow maps. Only a sphere under a
+// uniform scale is a sphere; returns its object-space radius, 0 when the key is absent or false.
+float analytic_sphere_radius(const Reader& r, const MeshUse& use, bool uniform_scale,
+                             bool casts_shadows) {
+  if (!r.boolean("analytic_shadow", false)) return 0.0f;
+  if (!(use.sphere_radius > 0.0f)) {
+    r.fail_key("analytic_shadow", "analytic_shadow = true needs mesh = \"sphere\" (the closed form "
+                                  "is a sphere's), not mesh = \"" +
+                                      r.opt_string("mesh").value_or("") + "\"");
+  }
+  if (!uniform_scale) {
+    r.fail_key("analytic_shadow",
+               "analytic_shadow = true needs a uniform scale (a single number): a sphere scaled "
+               "unevenly is an ellipsoid");
+  }
+  if (!casts_shadows) {
+    r.fail_key("analytic_shadow", "analytic_shadow = true with casts_shadows = false: an object "
+                                  "that casts no shadow has no shadow to compute");
+  }
+  return use.sphere_radius;
+}
+
+// Fails at `analytic_shadow` when the scene's analytic spheres exceed kMaxAnalyticSpheres.
+void check_analytic_count(const Reader& r, const Scene& scene) {
+  const auto count = std::count_if(scene.instances.begin(), scene.instances.end(),
+                                   [](const Instance& i) { return i.analytic_sphere_radius > 0.0f; });
+  if (std::uint32_t(count) > kMaxAnalyticSpheres) {
+    r.fail_key("analytic_shadow", "the scene has " + std::to_string(count) +
+                                      " analytic spheres; at most " +
+                                      std::to_string(kMaxAnalyticSpheres) + " are supported");
+  }
+}
 
 class Builder {
  public:
@@ -181,14 +220,15 @@ class Builder {
           kind + " " + hex_float(size.x) + " " + hex_float(size.y) + " " + hex_float(size.z);
       use.mesh = shared(key, [&] { return kind == "box" ? make_box(size) : make_table(size); });
     } else if (kind == "sphere") {
-      const float radius = r.numberf("radius", 0.5f, kPositive);
+      const float radius = scatter ? 0.5f : r.numberf("radius", 0.5f, kPositive);
       const std::uint32_t segments = r.uint("segments", 32, 3, 1024);
       const std::uint32_t rings = r.uint("rings", 16, 2, 1024);
       use.mesh = shared("sphere " + hex_float(radius) + " " + std::to_string(segments) + " " +
                             std::to_string(rings),
                         [&] { return make_sphere(radius, segments, rings); });
+      use.sphere_radius = radius;
     } else if (kind == "post") {
-      const float radius = r.numberf("radius", 0.05f, kPositive);
+      const float radius = scatter ? 0.05f : r.numberf("radius", 0.05f, kPositive);
       const float height = r.numberf("height", 2.0f, kPositive);
       const std::uint32_t segments = r.uint("segments", 12, 3, 1024);
       use.mesh = shared(
@@ -286,13 +326,16 @@ glm::mat4 rotation_xyz(glm::vec3 degrees) {
 
 void read_object(const Reader& r, Builder& builder, Scene& scene) {
   const MeshUse use = builder.mesh(
-      r, {"mesh", "material", "position", "rotation", "scale", "casts_shadows"}, false);
+      r, {"mesh", "material", "position", "rotation", "scale", "casts_shadows", "analytic_shadow"},
+      false);
   Instance instance;
   instance.mesh = use.mesh;
   instance.material = builder.material(r);
   glm::vec3 scale(1.0f);
+  bool uniform_scale = true;
   if (const toml::node* node = r.get("scale"); node != nullptr && node->is_array()) {
     scale = glm::vec3(*r.opt_vec<3>("scale", kPositive));
+    uniform_scale = scale.x == scale.y && scale.y == scale.z;
   } else {
     scale = glm::vec3(r.numberf("scale", 1.0f, kPositive));
   }
@@ -301,7 +344,10 @@ void read_object(const Reader& r, Builder& builder, Scene& scene) {
   instance.transform = glm::translate(glm::mat4(1.0f), position) * rotation_xyz(rotation) *
                        glm::scale(glm::mat4(1.0f), scale) * use.normalize;
   instance.casts_shadows = r.boolean("casts_shadows", true);
+  instance.analytic_sphere_radius =
+      analytic_sphere_radius(r, use, uniform_scale, instance.casts_shadows);
   scene.instances.push_back(instance);
+  check_analytic_count(r, scene);
 }
 
 // A deterministic generator (splitmix64), identical on every platform.
@@ -324,7 +370,8 @@ class Random {
 void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
   const MeshUse use = builder.mesh(r,
                                    {"mesh", "material", "count", "seed", "center", "radius",
-                                    "inner_radius", "flatten", "scale", "casts_shadows"},
+                                    "inner_radius", "flatten", "scale", "casts_shadows",
+                                    "analytic_shadow"},
                                    true);
   const std::uint32_t material = builder.material(r);
   if (!r.has("count")) r.missing("count");
@@ -351,6 +398,7 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
     scale_range = glm::dvec2(r.number("scale", 1.0, kPositive));
   }
   const bool casts = r.boolean("casts_shadows", true);
+  const float analytic_radius = analytic_sphere_radius(r, use, true, casts);
 
   const Bounds local = transform_bounds(builder.mesh_at(use.mesh).bounds, use.normalize);
   const double unit_radius = 0.5 * glm::length(glm::dvec3(local.size()));
@@ -402,9 +450,10 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
     const glm::dmat4 transform = glm::translate(glm::dmat4(1.0), position) *
                                  glm::mat4_cast(glm::normalize(q)) *
                                  glm::scale(glm::dmat4(1.0), glm::dvec3(scale));
-    scene.instances.push_back(
-        Instance{use.mesh, material, glm::mat4(transform) * use.normalize, casts});
+    scene.instances.push_back(Instance{use.mesh, material, glm::mat4(transform) * use.normalize,
+                                       casts, analytic_radius});
   }
+  check_analytic_count(r, scene);
 }
 
 }  // namespace

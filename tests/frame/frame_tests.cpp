@@ -218,6 +218,7 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     EXPECT_TRUE(b.has_pass("shadow-resolve"));
     EXPECT_FALSE(b.has_pass("point-shadow")) << b.to_string();
     EXPECT_FALSE(b.has_pass("spot-shadow")) << b.to_string();
+    EXPECT_FALSE(b.has_pass("sphere-shadows")) << b.to_string();
     EXPECT_TRUE(b.has_pipeline("sun-shadow-opaque"));
     EXPECT_TRUE(b.has_pipeline("sun-shadow-masked")) << "the default scene has a masked fence";
   }
@@ -235,6 +236,18 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     EXPECT_TRUE(b.has_pass("spot-shadow"));
     EXPECT_TRUE(b.has_pass("point-shadow"));
     EXPECT_FALSE(b.has_pass("sun-shadow")) << b.to_string();
+  }
+  {
+    // An analytic sphere: the sphere pass, for the local lights' image only.
+    auto s = small("indoor");
+    for (auto& i : s.instances)
+      if (s.meshes[i.mesh].name.starts_with("sphere")) i.analytic_sphere_radius = 0.15f;
+    render::Renderer r(ctx(), s);
+    const auto& b = r.built();
+    EXPECT_TRUE(b.has_pass("sphere-shadows: compute (1 analytic spheres)")) << b.to_string();
+    EXPECT_TRUE(b.has_pipeline("sphere-shadows PENUMBRA_SUN_SHADOWS=0 PENUMBRA_LOCAL_SHADOWS=1 "
+                               "PENUMBRA_ANALYTIC_SPHERES=1"))
+        << b.to_string();
   }
   {
     auto s = small("default");

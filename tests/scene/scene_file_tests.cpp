@@ -261,6 +261,61 @@ TEST(SceneFile, LightRadiusDefaultsToAPointAndIsRead) {
                                                              "of range; must be >= 0"));
 }
 
+TEST(SceneFile, AnalyticSpheresLeaveTheMapsAndAreListedInWorldSpace) {
+  const std::string sun = "[sun]\ndirection = [0, -1, 0]\n";
+  const Scene scene = parse(sun +
+                            "[[object]]\nmesh = \"sphere\"\nradius = 0.5\nposition = [1, 2, 3]\n"
+                            "scale = 3\nanalytic_shadow = true\n"
+                            "[[object]]\nmesh = \"sphere\"\nposition = [4, 0, 0]\n" +
+                            kBox);
+  ASSERT_EQ(scene.instances.size(), 3u);
+  EXPECT_EQ(scene.instances[0].analytic_sphere_radius, 0.5f);
+  EXPECT_FALSE(scene.instances[0].in_shadow_maps());
+  EXPECT_TRUE(scene.instances[0].casts_shadows);  // still a caster (the contact pass, the truth)
+  EXPECT_TRUE(scene.instances[1].in_shadow_maps());
+  const auto spheres = scene.analytic_spheres();
+  ASSERT_EQ(spheres.size(), 1u);
+  expect_near(glm::vec3(spheres[0]), glm::vec3(1, 2, 3));
+  EXPECT_FLOAT_EQ(spheres[0].w, 1.5f);
+  EXPECT_EQ(scene.requirements().analytic_spheres, 1u);
+  // Without a shadowed light nothing is built for them.
+  const Scene unlit = parse("[[object]]\nmesh = \"sphere\"\nanalytic_shadow = true\n");
+  EXPECT_EQ(unlit.requirements().analytic_spheres, 0u);
+  // A scatter of spheres: every instance is one, at its own position and scale.
+  const Scene field = parse(sun +
+                            "[[scatter]]\nmesh = \"sphere\"\ncount = 5\nradius = 10\n"
+                            "scale = [1, 2]\nanalytic_shadow = true\n");
+  ASSERT_EQ(field.analytic_spheres().size(), 5u);
+  for (std::size_t i = 0; i < 5; ++i) {
+    expect_near(glm::vec3(field.analytic_spheres()[i]), glm::vec3(field.instances[i].transform[3]));
+    // The sphere's default radius (a scatter's `radius` is where it places them) times the scale.
+    EXPECT_GE(field.analytic_spheres()[i].w, 0.5f);
+    EXPECT_LE(field.analytic_spheres()[i].w, 1.0f);
+  }
+}
+
+TEST(SceneFile, AnalyticShadowsAreForUniformlyScaledCastingSpheres) {
+  const std::string box = "[[object]]\nmesh = \"box\"\nanalytic_shadow = true\n";
+  EXPECT_THAT(error_of(box), HasSubstr(at(box, "analytic_shadow") +
+                                       "[[object]] #1 analytic_shadow: analytic_shadow = true "
+                                       "needs mesh = \"sphere\""));
+  const std::string uneven =
+      "[[object]]\nmesh = \"sphere\"\nscale = [1, 2, 1]\nanalytic_shadow = true\n";
+  EXPECT_THAT(error_of(uneven), HasSubstr(at(uneven, "analytic_shadow") +
+                                          "[[object]] #1 analytic_shadow: analytic_shadow = "
+                                          "true needs a uniform scale"));
+  const std::string hidden =
+      "[[object]]\nmesh = \"sphere\"\ncasts_shadows = false\nanalytic_shadow = true\n";
+  EXPECT_THAT(error_of(hidden), HasSubstr(at(hidden, "analytic_shadow") + "[[object]] #1 "
+                                          "analytic_shadow: analytic_shadow = true with "
+                                          "casts_shadows = false"));
+  const std::string many = "[[scatter]]\nmesh = \"sphere\"\ncount = 300\nradius = 100\n"
+                           "analytic_shadow = true\n";
+  EXPECT_THAT(error_of(many), HasSubstr(at(many, "analytic_shadow") +
+                                        "[[scatter]] #1 analytic_shadow: the scene has 300 "
+                                        "analytic spheres; at most 256 are supported"));
+}
+
 TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
   const Scene scene = parse(
       "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"pcss\"\n"

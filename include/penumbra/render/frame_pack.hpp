@@ -33,7 +33,8 @@ struct Draw {
   std::uint32_t mesh = 0;
   DrawPush push{};
   bool masked = false;
-  bool casts = true;
+  bool casts = true;    // a shadow caster (the prepass marks it for the contact pass)
+  bool in_maps = true;  // drawn into the shadow maps (not an analytic sphere)
   std::uint32_t mask_texture = 0;  // pushed in index.w: its slot in Scene::mask_images()
 };
 
@@ -49,6 +50,9 @@ struct PackedFrame {
   std::vector<shadow::SpotShadowGpu> spot_gpu;
   std::vector<shadow::PointShadow> point_shadows;
   std::vector<shadow::PointShadowGpu> point_gpu;
+  // The analytic spheres (Scene::analytic_spheres), centres relative to the origin; the resolves
+  // read them as PENUMBRA_ANALYTIC_SPHERES vec4s.
+  std::vector<glm::vec4> analytic_spheres;
 };
 
 // The camera of the shadow math (double precision, world space) for an image of width x height.

@@ -72,7 +72,17 @@ struct Instance {
   std::uint32_t material = 0;  // index into Scene::materials
   glm::mat4 transform{1.0f};   // object -> world
   bool casts_shadows = true;
+  // > 0 (analytic_shadow = true): a sphere of this object-space radius about the object's origin,
+  // under a uniform scale, whose shadow is computed in closed form (penumbra/sphere_shadow.glsl)
+  // instead of being drawn into the shadow maps. The reference traces its mesh as any other.
+  float analytic_sphere_radius = 0.0f;
+  // Whether the instance is drawn into the shadow maps.
+  bool in_shadow_maps() const { return casts_shadows && !(analytic_sphere_radius > 0.0f); }
 };
+
+// At most this many analytic spheres per scene (a uniform buffer of vec4s; every shadowed pixel
+// loops over them for every light).
+inline constexpr std::uint32_t kMaxAnalyticSpheres = 256;
 
 struct Camera {
   glm::vec3 position{0.0f, 2.0f, 6.0f};
@@ -237,6 +247,8 @@ struct Scene {
   std::vector<Bounds> instance_world_bounds() const;
   // Of the instances with casts_shadows.
   Bounds caster_bounds() const;
+  // The analytic spheres' world centres (xyz) and radii (w), in instance order.
+  std::vector<glm::vec4> analytic_spheres() const;
 
   // What the scene requires; the renderer creates passes, images and variants only for these.
   struct Requirements {
@@ -250,6 +262,7 @@ struct Scene {
     std::uint32_t mask_textures = 0;       // distinct mask textures those materials sample
     bool temporal = false;                 // shadows.temporal and a shadowed light
     bool sun_moments = false;              // sun_shadows with filter = evsm2: the evsm pass
+    std::uint32_t analytic_spheres = 0;    // instances with analytic_shadow, if a light is shadowed
     bool operator==(const Requirements&) const = default;
   };
   Requirements requirements() const;

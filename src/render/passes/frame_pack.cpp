@@ -39,6 +39,7 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
     d.push.mask = glm::vec4(d.masked ? float(int(mat.mask)) : 0.0f, mat.alpha_cutoff,
                             mat.mask_scale.x, mat.mask_scale.y);
     d.casts = inst.casts_shadows;
+    d.in_maps = inst.in_shadow_maps();
     d.mask_texture = mask_slot.at(inst.material);
     draws.push_back(d);
   }
@@ -228,6 +229,10 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   const bool reverse_z = scene.shadows.reverse_z;
   out.origin = to_d(c.position);
   out.draws = pack_draws(scene, out.origin);
+  for (const glm::vec4& sphere : scene.analytic_spheres()) {
+    const glm::dvec3 centre = glm::dvec3(glm::vec3(sphere)) - out.origin;
+    out.analytic_spheres.emplace_back(glm::vec3(centre), sphere.w);
+  }
   const double aspect = double(width) / double(height);
   const glm::mat4 view = glm::lookAt(glm::vec3(0.0f), c.target - c.position, c.up);
   const glm::mat4 proj = camera_projection(c, aspect, reverse_z);

@@ -49,6 +49,9 @@ struct FrameResources {
 
   std::vector<GpuMesh> meshes;
   gpu::Buffer frame_ubo;
+  // The analytic spheres (PackedFrame::analytic_spheres), when the scene has any
+  // (SphereShadowPass).
+  gpu::Buffer sphere_ubo;
   // Screen-sized images: depth and view-space normals (prepass), the sun's shadow info (shadow
   // resolve), the lit HDR colour and per-light visibility (forward), the output (tonemap).
   // The local lights' visibility (local shadow resolve), one channel per light, and the debug
@@ -211,6 +214,19 @@ class LocalShadowResolvePass final : public Pass {
 
  private:
   PerPixelCompute compute_;
+};
+
+// Analytic sphere shadows: every shadowed light's visibility (shadow-info, local-shadow) times
+// what the scene's analytic spheres leave of it, in place, after the resolves.
+class SphereShadowPass final : public Pass {
+ public:
+  SphereShadowPass(FrameResources& r, const ShadowMapPass& maps);
+  PassIo io() const override;
+  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+
+ private:
+  PerPixelCompute compute_;
+  bool sun_ = false, local_ = false;
 };
 
 // Temporal accumulation of every light's visibility (shadows.temporal): the resolves' images

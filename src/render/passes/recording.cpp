@@ -164,7 +164,7 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
     if (p == VK_NULL_HANDLE) continue;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
     for (const auto& d : r.packed.draws) {
-      if (d.masked != (pass == 1) || (casters_only && !d.casts)) continue;
+      if (d.masked != (pass == 1) || (casters_only && !d.in_maps)) continue;
       const GpuMesh& m = r.meshes[d.mesh];
       if (m.index_count == 0) continue;
       DrawPush push = d.push;
