@@ -122,6 +122,22 @@ TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
   // could go either way; the seeded sweep has none there.
   PENUMBRA_EXPECT_ALL_NEAR(le, light.run(lc), Tolerance::absolute(kTolerance));
   PENUMBRA_EXPECT_ALL_NEAR(se, sun.run(sc), Tolerance::absolute(kTolerance));
+  // Tiny caps: a small sun and small distant spheres, where cos(a + b) rounds to 1 in fp32 (the
+  // quick rejection must leave them to the exact path).
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, glm::vec4>> tc;
+  std::vector<float> te;
+  for (int i = 0; i < 500; ++i) {
+    const double a = log_uniform(rng, 1e-4, 1e-3), b = log_uniform(rng, 1e-4, 1e-3);
+    const double g = (a + b) * rng.next_unit();
+    const glm::dvec3 dir(0.0, 0.0, 1.0);
+    const double d = 1000.0;
+    const glm::dvec3 o = d * glm::dvec3(std::sin(g), 0.0, std::cos(g));
+    const glm::vec4 sphere{glm::vec3(o), float(d * std::sin(b))};
+    tc.emplace_back(glm::vec3(0.0f), glm::vec3(dir), float(a), sphere);
+    te.push_back(float(sphere_ref::sun_sphere_occlusion(glm::dvec3(0.0), dir, float(a),
+                                                        glm::vec3(o), sphere.w)));
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(te, sun.run(tc), Tolerance::absolute(kTolerance));
   // An occluder wholly beyond the light hides nothing; a receiver at its centre is hidden.
   EXPECT_EQ(light(glm::vec3(0), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 0.0f);
   EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);

@@ -102,6 +102,16 @@ float sphere_occluder_half_angle(float r, float d) {
   return d > r ? asin(r / d) : kSphereShadowHalfPi;
 }
 
+// Whether the caps of half-angles a and b (sines sa, sb; cosines ca, cb) whose centres are
+// cos_g apart surely miss each other: cos g below cos(a + b) by more than fp32 can blur (the
+// margin keeps tiny caps, where cos(a + b) rounds to 1, on the exact path). Square roots and
+// products only: most receivers see no sphere near the light, and this spares them the trig.
+bool sphere_caps_surely_apart(float sa, float sb, float cos_g) {
+  float ca = sqrt(max(1.0 - sa * sa, 0.0));
+  float cb = sqrt(max(1.0 - sb * sb, 0.0));
+  return cos_g < ca * cb - sa * sb - 1e-5;
+}
+
 // Returns the fraction of a sphere light (centre light_center, radius light_radius >= 0; 0 is a
 // point light) that the sphere `sphere` (xyz centre, w radius) hides from the receiver p, in
 // [0, 1]. An occluder wholly beyond the light's centre hides nothing; a receiver at the
@@ -114,7 +124,10 @@ float sphere_light_occlusion(vec3 p, vec3 light_center, float light_radius, vec4
   if (!(sphere.w > 0.0) || !(dl > 0.0)) return 0.0;
   if (d - sphere.w >= dl) return 0.0;
   if (!(d > 0.0)) return 1.0;
-  float a = asin(min(max(light_radius, 0.0) / dl, 1.0));
+  float sa = min(max(light_radius, 0.0) / dl, 1.0);
+  if (sphere_caps_surely_apart(sa, min(sphere.w / d, 1.0), dot(to_light, to_occluder) / (dl * d)))
+    return 0.0;
+  float a = asin(sa);
   return sphere_cap_occlusion(a, sphere_occluder_half_angle(sphere.w, d),
                               sphere_shadow_angle(to_light, to_occluder));
 }
@@ -126,7 +139,11 @@ float sun_sphere_occlusion(vec3 p, vec3 to_sun, float angular_radius, vec4 spher
   float d = length(to_occluder);
   if (!(sphere.w > 0.0)) return 0.0;
   if (!(d > 0.0)) return 1.0;
-  return sphere_cap_occlusion(max(angular_radius, 0.0), sphere_occluder_half_angle(sphere.w, d),
+  float a = max(angular_radius, 0.0);
+  if (sphere_caps_surely_apart(sin(min(a, kSphereShadowHalfPi)), min(sphere.w / d, 1.0),
+                               dot(to_sun, to_occluder) / d))
+    return 0.0;
+  return sphere_cap_occlusion(a, sphere_occluder_half_angle(sphere.w, d),
                               sphere_shadow_angle(to_sun, to_occluder));
 }
 
