@@ -19,7 +19,8 @@
 //   by 0.013 at a = 0.1.) Planar (below): the lens of two circles of radii a and b at distance g,
 //   scaled by a, also as two segments (half-angles from atan2 of the common chord, a series for
 //   thin segments), so that it stays exact to rounding for any b / a; its error is the sphere's
-//   curvature, O(a^2), 1e-4 at the switch.
+//   curvature, O(a^2), except next to a horizon (b near pi/2), where the occluder's edge is a
+//   great circle that the planar form bends with radius b: 0.0007 there at the switch.
 // - Several occluders combine as a product of visibilities, 1 - occlusion each: overlapping
 //   occluders (in the light's view) over-darken; the reference error says by how much.
 
@@ -43,27 +44,52 @@ float sphere_segment_area(float theta) {
   return theta - 0.5 * sin(2.0 * theta);
 }
 
-// Returns the fraction of a disc of radius 1 that a disc of radius b at distance g covers
-// (planar), for g in (|1 - b|, 1 + b): two segments cut by the common chord.
-float sphere_planar_lens_fraction(float b, float g) {
-  // The chord's signed distance from the unit disc's centre, towards the other disc.
-  float x = ((g - b) * (g + b) + 1.0) / (2.0 * g);
+// Returns the fraction of a disc of radius a that a disc of radius b at distance g covers
+// (planar), for g in (|a - b|, a + b): two segments cut by the common chord, in units of a.
+// g - b is taken before the division: at the smallest lights g / a and b / a are 1e4 and more,
+// and their difference would carry the quotients' rounding (a drivers' division may be off by
+// 2.5 ULP).
+float sphere_planar_lens_fraction(float a, float b, float g) {
+  float bu = b / a, gu = g / a;
+  // The chord's signed distance from the light disc's centre, towards the other disc.
+  float x = (((g - b) / a) * ((g + b) / a) + 1.0) / (2.0 * gu);
   float h = sqrt(max(1.0 - x * x, 0.0));  // half the chord
   float theta_a = atan(h, x);
-  float theta_b = atan(h / b, (g - x) / b);
-  return (sphere_segment_area(theta_a) + b * b * sphere_segment_area(theta_b)) / kSphereShadowPi;
+  float theta_b = atan(h / bu, (gu - x) / bu);
+  return (sphere_segment_area(theta_a) + bu * bu * sphere_segment_area(theta_b)) /
+         kSphereShadowPi;
 }
 
 // Returns the area of the part of a cap of half-angle r (<= pi/2) beyond the great circle through
 // two points of its boundary at azimuths +-phi: the sector 2 phi (1 - cos r) less the spherical
-// triangle (centre, the two points), whose excess E has tan(E / 2) = t sin(2 phi) / (1 + t
+// triangle (centre, the two points), whose excess E has tan(E / 2) = u = t sin(2 phi) / (1 + t
 // cos(2 phi)), t = tan^2(r / 2) (<= 1, so the denominator stays positive for phi < pi/2 and the
-// excess goes negative past it, as the segment grows beyond half the cap).
+// excess goes negative past it, as the segment grows beyond half the cap). A thin segment of a
+// large cap (the occluder's, seen from a receiver close to it) is a small difference of two
+// terms of the order of phi, so it is written as
+//   [4 phi t / (1 + t) - 2 u] + 2 (u - atan u),
+// the first bracket as 2 t ((x - sin x) + t (x cos x - sin x)) / ((1 + t)(1 + t cos x)) with
+// x = 2 phi, and each difference by its series where it is small: no term cancels. (Summed
+// directly, the atan's rounding alone put lavapipe 0.0012 off at a = 0.01 next to a horizon.)
 float sphere_cap_segment_area(float r, float phi) {
-  float s = sin(0.5 * r);
   float t = tan(0.5 * r);
   t *= t;
-  return 4.0 * phi * s * s - 2.0 * atan(t * sin(2.0 * phi), 1.0 + t * cos(2.0 * phi));
+  float x = 2.0 * phi;
+  float x2 = x * x;
+  float p, q;  // x - sin x, x cos x - sin x
+  if (x < 0.2) {
+    p = x * x2 * (1.0 / 6.0 - x2 * (1.0 / 120.0 - x2 * (1.0 / 5040.0)));
+    q = -x * x2 * (1.0 / 3.0 - x2 * (1.0 / 30.0 - x2 * (1.0 / 840.0)));
+  } else {
+    p = x - sin(x);
+    q = x * cos(x) - sin(x);
+  }
+  float den = 1.0 + t * cos(x);
+  float u = t * sin(x) / den;
+  float u2 = u * u;
+  float tail = abs(u) < 0.1 ? u * u2 * (1.0 / 3.0 - u2 * (1.0 / 5.0 - u2 * (1.0 / 7.0)))
+                            : u - atan(u);  // u - atan(u)
+  return 2.0 * t * (p + t * q) / ((1.0 + t) * den) + 2.0 * tail;
 }
 
 // Returns the fraction of a light cap of half-angle a hidden by an occluder cap of half-angle b
@@ -78,13 +104,17 @@ float sphere_cap_occlusion(float a, float b, float g) {
     float s = sin(0.5 * b) / sin(0.5 * a);
     return s * s;
   }
-  if (a < kSphereCapPlanarBelow) return clamp(sphere_planar_lens_fraction(b / a, g / a), 0.0, 1.0);
+  if (a < kSphereCapPlanarBelow) return clamp(sphere_planar_lens_fraction(a, b, g), 0.0, 1.0);
   float ca = cos(a), cb = cos(b), cg = cos(g);
   float sa = sin(a), sb = sin(b), sg = sin(g);
-  // The crossings' azimuths about each centre (spherical law of cosines).
-  float phi_a = acos(clamp((cb - ca * cg) / (sa * sg), -1.0, 1.0));
-  float phi_b = acos(clamp((ca - cb * cg) / (sb * sg), -1.0, 1.0));
+  // The crossings' azimuths about each centre (spherical law of cosines). cos b - cos a cos g
+  // is a small difference of terms near cos b when the light is small (cos a rounds to 1 below
+  // a = 3e-4): it is taken as (cos b - cos g) + cos g (1 - cos a), from half-angle sines.
   float half_a = sin(0.5 * a);
+  float cb_minus_ca_cg =
+      -2.0 * sin(0.5 * (b - g)) * sin(0.5 * (b + g)) + 2.0 * cg * half_a * half_a;
+  float phi_a = acos(clamp(cb_minus_ca_cg / (sa * sg), -1.0, 1.0));
+  float phi_b = acos(clamp((ca - cb * cg) / (sb * sg), -1.0, 1.0));
   float fraction = (sphere_cap_segment_area(a, phi_a) + sphere_cap_segment_area(b, phi_b)) /
                    (4.0 * kSphereShadowPi * half_a * half_a);
   return penumbra_is_finite(fraction) ? clamp(fraction, 0.0, 1.0) : 0.0;
