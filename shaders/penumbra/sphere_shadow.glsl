@@ -101,6 +101,9 @@ float sphere_cap_occlusion(float a, float b, float g) {
   if (!(a > 0.0)) return g < b ? 1.0 : 0.0;
   if (g <= b - a) return 1.0;
   if (g <= a - b) {  // the occluder inside the light: the ratio of the caps' solid angles
+    // Small caps by their angles: a driver's sin may be off by an absolute 4e-7 (NVIDIA's
+    // was 1% off at a = 1e-4).
+    if (a < kSphereCapPlanarBelow) return (b * b) / (a * a);
     float s = sin(0.5 * b) / sin(0.5 * a);
     return s * s;
   }
@@ -120,6 +123,12 @@ float sphere_cap_occlusion(float a, float b, float g) {
   return penumbra_is_finite(fraction) ? clamp(fraction, 0.0, 1.0) : 0.0;
 }
 
+// Returns asin(x) for x in [0, 1], by its series below 0.01 (a driver's asin, like its sin, may
+// be off by an absolute 4e-7, which is a percent of a small light's half-angle).
+float sphere_shadow_asin(float x) {
+  return x < 0.01 ? x * (1.0 + x * x * (1.0 / 6.0 + x * x * (3.0 / 40.0))) : asin(x);
+}
+
 // Returns the angle between two non-zero vectors, accurate at 0 and pi alike.
 float sphere_shadow_angle(vec3 u, vec3 v) {
   vec3 un = normalize(u), vn = normalize(v);
@@ -129,7 +138,7 @@ float sphere_shadow_angle(vec3 u, vec3 v) {
 // Returns the occluder cap's half-angle of a sphere of radius r at distance d: pi/2 on or inside
 // it (a receiver on the sphere itself: its tangent plane is the horizon).
 float sphere_occluder_half_angle(float r, float d) {
-  return d > r ? asin(r / d) : kSphereShadowHalfPi;
+  return d > r ? sphere_shadow_asin(r / d) : kSphereShadowHalfPi;
 }
 
 // Whether the caps of half-angles a and b (sines sa, sb; cosines ca, cb) whose centres are
@@ -157,7 +166,7 @@ float sphere_light_occlusion(vec3 p, vec3 light_center, float light_radius, vec4
   float sa = min(max(light_radius, 0.0) / dl, 1.0);
   if (sphere_caps_surely_apart(sa, min(sphere.w / d, 1.0), dot(to_light, to_occluder) / (dl * d)))
     return 0.0;
-  float a = asin(sa);
+  float a = sphere_shadow_asin(sa);
   return sphere_cap_occlusion(a, sphere_occluder_half_angle(sphere.w, d),
                               sphere_shadow_angle(to_light, to_occluder));
 }
