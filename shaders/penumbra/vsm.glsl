@@ -195,6 +195,19 @@ float evsm2_sample_shadow_array(sampler2DArray moment_maps, vec3 coord, int laye
   return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
 }
 
+// Returns the EVSM2 shadow factor of a point light's cube `layer` of a moment cube array, seen
+// along dir (light to receiver; need not be unit): ref is what the cube would store at the
+// receiver (cube_compare_depth, local_shadow.glsl), in the depth convention the moments were
+// warped with. The moments are sampled bilinearly across faces. A direction too short to address
+// the cube is lit.
+float evsm2_sample_shadow_cube_array(samplerCubeArray moment_cubes, vec3 dir, int layer, float ref,
+                                     float exponent, float min_variance, float bleed_reduction,
+                                     bool reverse_z, bool fp16) {
+  if (!(dot(dir, dir) >= 1.175494351e-38)) return 1.0;
+  vec2 moments = texture(moment_cubes, vec4(dir, float(layer))).xy;
+  return evsm2_shadow(moments, ref, exponent, min_variance, bleed_reduction, reverse_z, fp16);
+}
+
 // Returns the EVSM2 moments (E[w+], E[w+^2]) of a row of a depth-map array averaged over
 // 2 radius + 1 texels along x around texel t (xy texel, z layer), reads clamped to [0, size):
 // the first half of a separable box blur of the moments (evsm_moments.comp's first pass).

@@ -13,12 +13,16 @@
 #include "penumbra/cascade.glsl"
 #include "penumbra/local_shadow.glsl"
 #include "penumbra/noise.glsl"
+#include "penumbra/vsm.glsl"
 
 #ifndef PENUMBRA_SPOT_SHADOWS
 #define PENUMBRA_SPOT_SHADOWS 0
 #endif
 #ifndef PENUMBRA_POINT_SHADOWS
 #define PENUMBRA_POINT_SHADOWS 0
+#endif
+#ifndef PENUMBRA_POINT_MOMENTS
+#define PENUMBRA_POINT_MOMENTS 0
 #endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
@@ -38,6 +42,11 @@ layout(set = 0, binding = 8) uniform samplerCubeArray point_depth;          // n
 #endif
 layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D local_shadow;
 layout(set = 0, binding = 10, rgba16f) uniform writeonly image2D local_debug;
+#if PENUMBRA_POINT_MOMENTS
+// A point light's own filter = evsm2: the cubes' blurred EVSM2 moments (evsm_moments.comp over
+// every face), linear, sampled across faces.
+layout(set = 0, binding = 11) uniform samplerCubeArray point_moments;
+#endif
 
 // The light's own filter (LightGpu.params.w), else the scene's.
 uint light_filter(LightGpu light) {
@@ -173,6 +182,11 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   if (filter_mode == kFilterPoisson)
     return pcf_cube_vogel_array(point_compare, v, map, ref, int(frame.filter_params.z),
                                 frame.filter_params.w, rotation, resolution);
+#if PENUMBRA_POINT_MOMENTS
+  if (filter_mode == kFilterEvsm2)
+    return evsm2_sample_shadow_cube_array(point_moments, v, map, ref, frame.evsm.x, frame.evsm.y,
+                                          frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
+#endif
   return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
                                 resolution, params, int(frame.filter_params.y), rotation,
                                 reverse_z, n);

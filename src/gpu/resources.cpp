@@ -253,6 +253,8 @@ void Image::release() {
   for (VkImageView v : layer_views_)
     if (v != VK_NULL_HANDLE) vkDestroyImageView(ctx_->device(), v, nullptr);
   layer_views_.clear();
+  if (array_view_ != VK_NULL_HANDLE) vkDestroyImageView(ctx_->device(), array_view_, nullptr);
+  array_view_ = VK_NULL_HANDLE;
   if (view_ != VK_NULL_HANDLE) vkDestroyImageView(ctx_->device(), view_, nullptr);
   if (image_ != VK_NULL_HANDLE) vkDestroyImage(ctx_->device(), image_, nullptr);
   if (memory_ != VK_NULL_HANDLE) vkFreeMemory(ctx_->device(), memory_, nullptr);
@@ -269,6 +271,7 @@ Image::Image(Image&& o) noexcept
       memory_(std::exchange(o.memory_, VK_NULL_HANDLE)),
       view_(std::exchange(o.view_, VK_NULL_HANDLE)),
       layer_views_(std::move(o.layer_views_)),
+      array_view_(std::exchange(o.array_view_, VK_NULL_HANDLE)),
       layout_(o.layout_) {}
 
 Image& Image::operator=(Image&& o) noexcept {
@@ -280,6 +283,7 @@ Image& Image::operator=(Image&& o) noexcept {
     memory_ = std::exchange(o.memory_, VK_NULL_HANDLE);
     view_ = std::exchange(o.view_, VK_NULL_HANDLE);
     layer_views_ = std::move(o.layer_views_);
+    array_view_ = std::exchange(o.array_view_, VK_NULL_HANDLE);
     layout_ = o.layout_;
   }
   return *this;
@@ -300,6 +304,19 @@ VkImageView Image::layer_view(uint32_t layer) {
           "vkCreateImageView(layer)");
   }
   return layer_views_[layer];
+}
+
+VkImageView Image::array_view() {
+  if (array_view_ == VK_NULL_HANDLE) {
+    VkImageViewCreateInfo vi{VK_STRUCTURE_TYPE_IMAGE_VIEW_CREATE_INFO};
+    vi.image = image_;
+    vi.viewType = VK_IMAGE_VIEW_TYPE_2D_ARRAY;
+    vi.format = desc_.format;
+    vi.subresourceRange = {aspect(), 0, 1, 0, desc_.layers};
+    check(vkCreateImageView(ctx_->device(), &vi, nullptr, &array_view_),
+          "vkCreateImageView(array)");
+  }
+  return array_view_;
 }
 
 void Image::transition(VkCommandBuffer cmd, VkImageLayout new_layout) {

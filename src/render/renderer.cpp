@@ -172,7 +172,10 @@ struct Renderer::Impl {
     auto prepass = std::make_unique<PrepassPass>(res);
     shadow_maps = std::make_unique<ShadowMapPass>(res);
     std::unique_ptr<Pass> evsm;  // before the resolve, which samples its moments
-    if (req.sun_moments) evsm = std::make_unique<EvsmPass>(res, *shadow_maps);
+    if (req.sun_moments) evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::sun);
+    std::unique_ptr<Pass> point_evsm;  // before the local resolve, which samples its moments
+    if (req.point_moments && req.point_shadow_cubes > 0)
+      point_evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::points);
     std::unique_ptr<Pass> resolve;
     if (req.sun_shadows) resolve = std::make_unique<ShadowResolvePass>(res, *shadow_maps);
     std::unique_ptr<Pass> local_resolve;
@@ -189,6 +192,7 @@ struct Renderer::Impl {
     auto tonemap = std::make_unique<TonemapPass>(res);
     passes.push_back(std::move(prepass));
     if (evsm) passes.push_back(std::move(evsm));
+    if (point_evsm) passes.push_back(std::move(point_evsm));
     if (resolve) passes.push_back(std::move(resolve));
     if (local_resolve) passes.push_back(std::move(local_resolve));
     if (spheres) passes.push_back(std::move(spheres));
@@ -204,6 +208,7 @@ struct Renderer::Impl {
     caps.contact_pass = res.contact_mask != nullptr;
     caps.sun_shadows = res.req.sun_shadows;
     caps.sun_moments = res.req.sun_moments;
+    caps.point_moments = res.req.point_moments && res.req.point_shadow_cubes > 0;
     caps.sun_layers = res.req.cascades;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;

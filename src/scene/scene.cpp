@@ -94,7 +94,10 @@ Scene::Requirements Scene::requirements() const {
                 : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
                                                           : shadows.cascades;
   for (const SpotLight& spot : spots) r.spot_shadow_maps += spot.shadows ? 1 : 0;
-  for (const PointLight& point : points) r.point_shadow_cubes += point.shadows ? 1 : 0;
+  for (const PointLight& point : points) {
+    r.point_shadow_cubes += point.shadows ? 1 : 0;
+    r.point_moments = r.point_moments || (point.shadows && point.filter == Filter::evsm2);
+  }
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
   r.contact_pass = contact.step_count > 0 && has_light;
   r.temporal = shadows.temporal &&

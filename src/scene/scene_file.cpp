@@ -115,12 +115,14 @@ void read_sun(const Reader& r, Scene& scene) {
   read_table(r, "sun", scene);
 }
 
-// A spot or point light's own filter: moments (evsm2) are built for the sun's cascades only.
-std::optional<Filter> local_filter(const Reader& r) {
+// A spot or point light's own filter: moments (evsm2) are built for the sun's cascades and for
+// point lights' cubes, not for spot maps.
+std::optional<Filter> local_filter(const Reader& r, bool point) {
+  if (point) return r.opt_enum("filter", kPointFilters);
   if (r.has("filter") && r.opt_string("filter") == "evsm2") {
     r.fail_key("filter",
-               "'evsm2' is for the sun's cascades only; spot and point lights take hard, pcf, "
-               "pcss or poisson");
+               "'evsm2' is for the sun's cascades and point lights only; spot lights take hard, "
+               "pcf, pcss or poisson");
   }
   return r.opt_enum("filter", kLocalFilters);
 }
@@ -157,7 +159,7 @@ void read_spot(const Reader& r, SpotLight& spot) {
   spot.radius = r.numberf("radius", spot.radius, kNonNegative);
   spot.shadows = r.boolean("shadows", spot.shadows);
   spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
-  spot.filter = local_filter(r);
+  spot.filter = local_filter(r, false);
 }
 
 void read_point(const Reader& r, PointLight& point) {
@@ -170,7 +172,7 @@ void read_point(const Reader& r, PointLight& point) {
   point.radius = r.numberf("radius", point.radius, kNonNegative);
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
-  point.filter = local_filter(r);
+  point.filter = local_filter(r, true);
   point.fit_to_camera = r.boolean("fit_to_camera", point.fit_to_camera);
 }
 

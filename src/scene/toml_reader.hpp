@@ -130,11 +130,16 @@ inline const Names<Filter> kFilters{{"hard", Filter::hard},
                                     {"pcss", Filter::pcss},
                                     {"poisson", Filter::poisson},
                                     {"evsm2", Filter::evsm2}};
-// A spot or point light's own filter (moments are built for the sun's cascades only).
+// A spot light's own filter (no moments for spot maps), and a point light's.
 inline const Names<Filter> kLocalFilters{{"hard", Filter::hard},
                                          {"pcf", Filter::pcf},
                                          {"pcss", Filter::pcss},
                                          {"poisson", Filter::poisson}};
+inline const Names<Filter> kPointFilters{{"hard", Filter::hard},
+                                         {"pcf", Filter::pcf},
+                                         {"pcss", Filter::pcss},
+                                         {"poisson", Filter::poisson},
+                                         {"evsm2", Filter::evsm2}};
 inline const Names<MaskPattern> kMasks{{"none", MaskPattern::none},
                                        {"texture", MaskPattern::texture},
                                        {"stripes", MaskPattern::stripes},

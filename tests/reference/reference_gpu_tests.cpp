@@ -274,6 +274,79 @@ TEST_F(ReferenceGpu, Evsm2OnTheSunKeepsUmbraeAndLitGroundInBothMomentFormats) {
   }
 }
 
+// A hard point light over a few casters, every face of its cube in use.
+const char* const kHardPointScene = R"(
+name = "hard-point"
+[camera]
+position = [2.6, 2.4, 3.0]
+target = [0, 0.3, 0]
+fov_y = 60
+[[point]]
+position = [0.3, 2.6, 0.2]
+intensity = 40
+range = 20
+shadows = true
+resolution = 1024
+filter = "evsm2"
+[contact]
+steps = 0
+[render]
+width = 320
+height = 180
+[[material]]
+name = "grey"
+albedo = [0.6, 0.6, 0.6]
+[[object]]
+mesh = "plane"
+size = [14, 14]
+material = "grey"
+[[object]]
+mesh = "box"
+size = [0.6, 1.2, 0.6]
+position = [1.6, 0.6, 0.4]
+material = "grey"
+[[object]]
+mesh = "sphere"
+radius = 0.4
+position = [-1.2, 0.8, 1.1]
+material = "grey"
+[[object]]
+mesh = "chair"
+position = [0.4, 0, -1.5]
+material = "grey"
+[[object]]
+mesh = "box"
+size = [0.3, 0.3, 0.3]
+position = [-0.6, 0.15, -0.4]
+material = "grey"
+)";
+
+// A point light's own filter = evsm2 (the cubes' moments, face by face, sampled across faces)
+// under a hard light: in both moment formats the umbrae survive and the lit ground stays lit
+// away from shadow edges, as for the sun. Without the moments (the scene's evsm2 only), the light
+// uses pcf and the moments are not built.
+TEST_F(ReferenceGpu, Evsm2OnAPointLightKeepsUmbraeAndLitGroundInBothMomentFormats) {
+  for (const char* fp16 : {"false", "true"}) {
+    SCOPED_TRACE(std::string("evsm_fp16 = ") + fp16);
+    scene::Scene s = scene::parse_scene(kHardPointScene, "hard-point.toml", ".");
+    scene::set_param(s, "shadows.evsm_fp16", fp16);
+    ASSERT_TRUE(s.requirements().point_moments);
+    const Agreement a = hard_sun_agreement(ctx(), s);
+    ASSERT_GT(a.n, 20000u);
+    ASSERT_GT(a.shadowed, 800u);
+    EXPECT_GE(double(a.agree) / double(a.n), 0.99)
+        << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
+    EXPECT_GE(double(a.shadowed_agree) / double(a.shadowed), 0.99)
+        << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
+    std::printf("point, evsm_fp16 = %s: %zu of %zu interior agree, %zu of %zu shadowed; %s\n",
+                fp16, a.agree, a.n, a.shadowed_agree, a.shadowed, a.metrics.c_str());
+  }
+  scene::Scene scene_wide = scene::parse_scene(kHardPointScene, "hard-point.toml", ".");
+  scene_wide.points[0].filter.reset();
+  scene::set_param(scene_wide, "shadows.filter", "evsm2");
+  EXPECT_FALSE(scene_wide.requirements().point_moments);
+}
+
 // A fence masked by a texture (the grazing scene's lattice in 1.5 m tiles), leaning between the
 // sun and the ground: the rasterizer's caster pass and the reference's occlusion filter cut the
 // same holes. The holes are the receivers the same fence, opaque, shadows in the reference and

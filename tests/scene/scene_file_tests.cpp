@@ -327,13 +327,19 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
   const std::string text = "[[point]]\nposition = [1, 2, 0]\nfilter = \"pfc\"\n" + kBox;
   EXPECT_THAT(error_of(text),
               HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
-                                             "values: hard, pcf, pcss, poisson (did you mean "
-                                             "'pcf'?)"));
-  // Moments are the sun's only: a local light's evsm2 is refused with where and why.
+                                             "values: hard, pcf, pcss, poisson, evsm2 (did you "
+                                             "mean 'pcf'?)"));
+  // Moments are built for the sun's cascades and point lights' cubes: a spot light's evsm2 is
+  // refused with where and why, a point light's own evsm2 asks for the cubes' moments.
   const std::string evsm =
       "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox;
   EXPECT_THAT(error_of(evsm), HasSubstr(at(evsm, "filter") + "[[spot]] #1 filter: 'evsm2' is for "
-                                                             "the sun's cascades only"));
+                                                             "the sun's cascades and point "
+                                                             "lights only"));
+  const Scene point_evsm = parse("[[point]]\nposition = [1, 2, 0]\nfilter = \"evsm2\"\n" + kBox);
+  EXPECT_EQ(point_evsm.points[0].filter, Filter::evsm2);
+  EXPECT_TRUE(point_evsm.requirements().point_moments);
+  EXPECT_FALSE(point_evsm.requirements().sun_moments);
   // Under the sun's evsm2 a light without a filter of its own keeps it unset (pcf is chosen
   // when the frame is packed), and the scene requires the moments only with a shadowed sun.
   const Scene sun = parse("[sun]\ndirection = [0, -1, 0]\n[shadows]\nfilter = \"evsm2\"\n"

@@ -92,6 +92,8 @@ class Image {
 
   // A view of one layer as a plain 2D image (e.g. a render target for one cascade or cube face).
   VkImageView layer_view(uint32_t layer);
+  // A view of every layer as a plain 2D array (e.g. a cube array read or written face by face).
+  VkImageView array_view();
 
   // Records a barrier moving every subresource to new_layout (whole-pipeline scope; simple and
   // correct, not minimal) and remembers it.
@@ -118,6 +120,7 @@ class Image {
   VkDeviceMemory memory_ = VK_NULL_HANDLE;
   VkImageView view_ = VK_NULL_HANDLE;
   std::vector<VkImageView> layer_views_;
+  VkImageView array_view_ = VK_NULL_HANDLE;
   VkImageLayout layout_ = VK_IMAGE_LAYOUT_UNDEFINED;
 };
 

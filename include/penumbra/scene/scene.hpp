@@ -102,8 +102,9 @@ struct Sun {
   bool shadows = true;
 };
 
-// evsm2: exponential variance shadow maps (the sun's cascades only; a spot or point light
-// without a filter of its own then uses pcf).
+// evsm2: exponential variance shadow maps: the sun's cascades, and a point light's cube when the
+// light asks for it itself (its own filter); a spot light takes none, and a spot or point light
+// without a filter of its own then uses pcf.
 enum class Filter { hard, pcf, pcss, poisson, evsm2 };
 
 struct SpotLight {
@@ -262,6 +263,7 @@ struct Scene {
     std::uint32_t mask_textures = 0;       // distinct mask textures those materials sample
     bool temporal = false;                 // shadows.temporal and a shadowed light
     bool sun_moments = false;              // sun_shadows with filter = evsm2: the evsm pass
+    bool point_moments = false;            // a shadowed point light's own filter is evsm2
     std::uint32_t analytic_spheres = 0;    // instances with analytic_shadow, if a light is shadowed
     bool operator==(const Requirements&) const = default;
   };

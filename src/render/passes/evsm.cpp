@@ -1,7 +1,8 @@
-// The sun's EVSM2 moments (shadows.filter = evsm2): after the cascades are drawn, each cascade's
-// depths are warped into moments and box-blurred along x, then along y
-// (shaders/render/evsm_moments.comp), into sun-moments, which the shadow resolve samples
-// bilinearly. Built only when the scene's sun uses evsm2.
+// EVSM2 moments: after the maps are drawn, each layer's depths are warped into moments and
+// box-blurred along x, then along y (shaders/render/evsm_moments.comp). The sun's cascades
+// (shadows.filter = evsm2) go into sun-moments, which the shadow resolve samples bilinearly; the
+// point lights' cubes (a point light's own filter = evsm2), face by face, into point-moments, a
+// cube array the local resolve samples across faces. Built only for what the scene asks.
 
 #include <penumbra/core/error.hpp>
 
@@ -19,23 +20,31 @@ struct EvsmPush {
 
 }  // namespace
 
-EvsmPass::EvsmPass(FrameResources& r, const ShadowMapPass& maps) {
+EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
+    : source_(source) {
   const bool fp16 = r.scene.shadows.evsm_fp16;
+  const bool sun = source == MomentSource::sun;
   if (!r.ctx.info().storage_image_extended_formats) {
-    throw Error("shadows.filter = 'evsm2' needs shaderStorageImageExtendedFormats (rg16f / rg32f "
-                "storage images), which " + r.ctx.info().name + " does not have");
+    throw Error(std::string(sun ? "shadows.filter" : "a [[point]] filter") +
+                " = 'evsm2' needs shaderStorageImageExtendedFormats (rg16f / rg32f storage "
+                "images), which " + r.ctx.info().name + " does not have");
   }
-  resolution_ = maps.sun_map.desc().width;
-  layers_ = maps.sun_map.desc().layers;
+  gpu::Image& depths = sun ? maps.sun_map : maps.point_cubes;
+  resolution_ = depths.desc().width;
+  layers_ = depths.desc().layers;
   const VkFormat format = fp16 ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-  moments_x_ = r.make_image("sun-moments-x", gpu::ImageKind::image_2d_array, format, resolution_,
+  const std::string name = sun ? "sun-moments" : "point-moments";
+  moments_x_ = r.make_image(name + "-x", gpu::ImageKind::image_2d_array, format, resolution_,
                             resolution_, layers_, usage);
-  r.sun_moments = r.make_image("sun-moments", gpu::ImageKind::image_2d_array, format, resolution_,
-                               resolution_, layers_, usage);
-  gpu::SamplerDesc linear;
-  linear.filter = VK_FILTER_LINEAR;
-  r.linear_clamp = gpu::Sampler(r.ctx, linear);
+  gpu::Image& out = sun ? r.sun_moments : r.point_moments;
+  out = r.make_image(name, sun ? gpu::ImageKind::image_2d_array : gpu::ImageKind::cube_array,
+                     format, resolution_, resolution_, layers_, usage);
+  if (r.linear_clamp.handle() == VK_NULL_HANDLE) {  // shared by the sun's and the points' passes
+    gpu::SamplerDesc linear;
+    linear.filter = VK_FILTER_LINEAR;
+    r.linear_clamp = gpu::Sampler(r.ctx, linear);
+  }
   layout_ = std::make_unique<gpu::PipelineLayout>(
       r.ctx,
       std::vector<std::vector<gpu::BindingDesc>>{
@@ -46,30 +55,36 @@ EvsmPass::EvsmPass(FrameResources& r, const ShadowMapPass& maps) {
   for (int p = 0; p < 2; ++p) {
     const std::vector<shader::Define> defines{{"PENUMBRA_EVSM_PASS", std::to_string(p)},
                                               {"PENUMBRA_EVSM_FORMAT", fp16 ? "rg16f" : "rg32f"}};
-    r.add_pipeline(variant(p == 0 ? "evsm-moments-x" : "evsm-moments-y", defines),
+    r.add_pipeline(variant(std::string(sun ? "" : "point-") +
+                               (p == 0 ? "evsm-moments-x" : "evsm-moments-y"),
+                           defines),
                    {{"render/evsm_moments.comp", defines}},
                    [this, &r, p](const shader::Spirvs& spirv) {
                      pass_[p] = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
                    });
     set_[p] = r.pool.allocate(layout_->set_layout(0));
   }
+  // The cubes are read and written as plain 2D arrays, face by face.
   gpu::DescriptorWriter()
       .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
-      .combined_image(1, maps.sun_map.view(), r.raw_depth.handle())
+      .combined_image(1, sun ? depths.view() : depths.array_view(), r.raw_depth.handle())
       .storage_image(2, moments_x_.view())
       .update(r.ctx, set_[0]);
   gpu::DescriptorWriter()
       .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(1, moments_x_.view(), r.nearest.handle())
-      .storage_image(2, r.sun_moments.view())
+      .storage_image(2, sun ? out.view() : out.array_view())
       .update(r.ctx, set_[1]);
-  r.report.passes.push_back(std::string("evsm: moments ") + (fp16 ? "rg16f" : "rg32f") + ", " +
-                            std::to_string(layers_) + " layer(s), separable box blur");
+  r.report.passes.push_back(std::string(sun ? "evsm" : "evsm-point") + ": moments " +
+                            (fp16 ? "rg16f" : "rg32f") + ", " + std::to_string(layers_) +
+                            " layer(s), separable box blur");
 }
 
 EvsmPass::~EvsmPass() = default;
 
 PassIo EvsmPass::io() const {
+  if (source_ == MomentSource::points)
+    return {{"frame", "point-shadow-map"}, {"point-moments-x", "point-moments"}};
   return {{"frame", "sun-shadow-map"}, {"sun-moments-x", "sun-moments"}};
 }
 
@@ -77,7 +92,8 @@ void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) 
   const EvsmPush push{glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)),
                                  resolution_, 0u, 0u)};
   const uint32_t groups = (resolution_ + 7) / 8;
-  gpu::Image* out[2] = {&moments_x_, &r.sun_moments};
+  gpu::Image* out[2] = {&moments_x_,
+                        source_ == MomentSource::sun ? &r.sun_moments : &r.point_moments};
   for (int p = 0; p < 2; ++p) {
     out[p]->transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass_[p]->handle());
@@ -87,7 +103,7 @@ void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) 
     vkCmdDispatch(cmd, groups, groups, layers_);
     out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   }
-  mark("evsm");
+  mark(source_ == MomentSource::sun ? "evsm" : "evsm-point");
 }
 
 }  // namespace penumbra::render::passes

@@ -46,9 +46,13 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
   return draws;
 }
 
-// LightGpu.params.w: a local light's own filter, else -1 (the scene's); moments are the sun's
-// only, so under filter = evsm2 a light without a filter of its own uses pcf.
-float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> own) {
+// LightGpu.params.w: a local light's own filter, else -1 (the scene's). Moments are built for
+// the sun and for point lights whose own filter is evsm2 (`moments`: they were built), so under
+// the scene's evsm2 a light without a filter of its own uses pcf, and so does a point light's
+// own evsm2 without its moments.
+float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> own,
+                        bool moments = false) {
+  if (own == scene::Filter::evsm2 && !moments) return float(filter_index(scene::Filter::pcf));
   if (own) return float(filter_index(*own));
   return scene.shadows.filter == scene::Filter::evsm2 ? float(filter_index(scene::Filter::pcf))
                                                       : -1.0f;
@@ -90,7 +94,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
     LightGpu& l = out.frame.points[points++];
     l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
     l.color_intensity = glm::vec4(p.color, p.intensity);
-    l.params = glm::vec4(0, -1.0f, p.radius, local_filter_slot(scene, p.filter));
+    l.params = glm::vec4(0, -1.0f, p.radius, local_filter_slot(scene, p.filter, caps.point_moments));
     if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
       shadow::PointLight pl;
       pl.position = to_d(p.position);

@@ -66,6 +66,9 @@ struct FrameResources {
   // filter = evsm2 (EvsmPass): the sun's blurred moments, one layer per cascade, and the linear
   // clamping sampler the resolve reads them through.
   gpu::Image sun_moments;
+  // A point light's own filter = evsm2 (EvsmPass over the cubes): every cube's moments, a cube
+  // array like the cubes.
+  gpu::Image point_moments;
   gpu::Sampler linear_clamp;
   gpu::Sampler nearest, shadow_compare, raw_depth;
   // The scene's mask textures (R8, Scene::mask_images() order) with their linear, repeating
@@ -177,9 +180,13 @@ class PrepassPass final : public Pass {
 
 // The sun's EVSM2 moments (filter = evsm2): each cascade's depths warped into moments and
 // box-blurred, x then y (shaders/render/evsm_moments.comp), into sun-moments.
+// Which shadow maps the evsm pass turns into moments: the sun's cascades, or the point lights'
+// cubes (face by face, into a cube array the local resolve samples).
+enum class MomentSource { sun, points };
+
 class EvsmPass final : public Pass {
  public:
-  EvsmPass(FrameResources& r, const ShadowMapPass& maps);
+  EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source);
   ~EvsmPass() override;
   PassIo io() const override;
   void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
@@ -190,6 +197,7 @@ class EvsmPass final : public Pass {
   VkDescriptorSet set_[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   gpu::Image moments_x_;
   uint32_t resolution_ = 0, layers_ = 0;
+  MomentSource source_ = MomentSource::sun;
 };
 
 // The sun: cascade selection, biases and the filter, per pixel, into the shadow-info image.
@@ -214,6 +222,7 @@ class LocalShadowResolvePass final : public Pass {
 
  private:
   PerPixelCompute compute_;
+  bool moments_ = false;  // a point light's own evsm2: it reads point-moments
 };
 
 // Analytic sphere shadows: every shadowed light's visibility (shadow-info, local-shadow) times

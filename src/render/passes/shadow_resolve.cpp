@@ -36,8 +36,13 @@ std::vector<shader::Define> sun_resolve_defines(const FrameResources& r) {
   return {{"PENUMBRA_SUN_MOMENTS", "1"}};
 }
 
+// A point light's own evsm2: the point cubes' moments were built (EvsmPass, points).
+bool point_moments(const FrameResources& r) {
+  return r.req.point_moments && r.req.point_shadow_cubes > 0;
+}
+
 // Frame, depth, normals and the two outputs, then per light type present its block, its compare
-// view and its raw view (spots at 3-5, points at 6-8).
+// view and its raw view (spots at 3-5, points at 6-8); the point cubes' moments at 11.
 std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
   std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
                                   {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
@@ -50,12 +55,15 @@ std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
     b.push_back({first + 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
     b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   }
+  if (point_moments(r)) b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   return b;
 }
 
 std::vector<shader::Define> local_defines(const FrameResources& r) {
   const auto all = light_defines(r);
-  return {all[2], all[3]};
+  std::vector<shader::Define> d{all[2], all[3]};
+  if (point_moments(r)) d.push_back({"PENUMBRA_POINT_MOMENTS", "1"});
+  return d;
 }
 
 }  // namespace
@@ -120,13 +128,17 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
         .combined_image(7, maps.point_cubes.view(), r.shadow_compare.handle())
         .combined_image(8, maps.point_cubes.view(), r.raw_depth.handle());
   }
+  if (point_moments(r)) w.combined_image(11, r.point_moments.view(), r.linear_clamp.handle());
   w.update(r.ctx, compute_.set());
+  moments_ = point_moments(r);
   r.report.passes.push_back("local-shadow-resolve: compute");
 }
 
 PassIo LocalShadowResolvePass::io() const {
-  return {{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"},
-          {"local-shadow", "local-shadow-debug"}};
+  PassIo io{{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"},
+            {"local-shadow", "local-shadow-debug"}};
+  if (moments_) io.reads.push_back("point-moments");
+  return io;
 }
 
 void LocalShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
