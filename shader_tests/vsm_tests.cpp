@@ -463,5 +463,54 @@ TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
   }
 }
 
+// A spot light's perspective depths are made linear before the warp: each texel's view depth
+// (from the projection's planes, written here from the projection rather than from depth.glsl)
+// mapped to [0, 1] between the planes, 1 - that under reverse-Z, then warped and box-averaged.
+// Warping the perspective depth itself (the plain evsm2_moments_box_x) misses by far more than
+// the tolerance.
+TEST_F(VsmTest, SpotMomentsWarpLinearDepthBetweenThePlanes) {
+  const int size = 10;
+  const double near = 0.2, far = 25.0;
+  Rng rng(0x5B07);
+  std::vector<float> depth(size_t(size * size));
+  for (float& d : depth) d = detail::uniform_scalar(rng, 0.0f, 1.0f);
+  FloatTextureDesc desc;
+  desc.width = desc.height = size;
+  desc.array = true;
+  ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, float, float,
+                           bool, bool)>
+      linear("penumbra/vsm.glsl", "evsm2_moments_box_x_linear");
+  linear.bind(0, make_float_texture(desc, depth));
+  for (bool reverse_z : {true, false}) {
+    const int radius = 1;
+    const float c = 20.0f;
+    std::vector<std::tuple<glm::ivec3, int32_t, int32_t, float, float, float, bool, bool>> cases;
+    for (int y = 0; y < size; ++y)
+      for (int x = 0; x < size; ++x)
+        cases.emplace_back(glm::ivec3(x, y, 0), radius, size, c, float(near), float(far),
+                           reverse_z, false);
+    const auto got = linear.run(cases);
+    for (size_t i = 0; i < cases.size(); ++i) {
+      const glm::ivec3 t = std::get<0>(cases[i]);
+      double m1 = 0.0, m2 = 0.0;
+      for (int k = -radius; k <= radius; ++k) {
+        const double d = depth[size_t(t.y * size + std::clamp(t.x + k, 0, size - 1))];
+        // Reverse-Z stores near / z scaled between the planes: d = near (far - z) / (z (far -
+        // near)); standard stores 1 - that with the planes swapped.
+        const double z = reverse_z ? near * far / (near + d * (far - near))
+                                   : near * far / (far - d * (far - near));
+        const double l = std::clamp((z - near) / (far - near), 0.0, 1.0);
+        const double w = ref::evsm_positive(reverse_z ? 1.0 - l : l, c, reverse_z);
+        m1 += w;
+        m2 += w * w;
+      }
+      m1 /= 2 * radius + 1;
+      m2 /= 2 * radius + 1;
+      ASSERT_NEAR(got[i].x, m1, 1e-4 * m1) << "texel " << t.x << ", " << t.y;
+      ASSERT_NEAR(got[i].y, m2, 1e-4 * m2) << "texel " << t.x << ", " << t.y;
+    }
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing

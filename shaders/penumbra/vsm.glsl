@@ -26,6 +26,7 @@
 #ifndef PENUMBRA_VSM_GLSL
 #define PENUMBRA_VSM_GLSL
 
+#include "penumbra/depth.glsl"
 #include "penumbra/finite.glsl"
 
 // Exponent limits of the EVSM warps (see the header).
@@ -217,6 +218,23 @@ vec2 evsm2_moments_box_x(sampler2DArray depth_map, ivec3 t, int radius, int size
   for (int i = -radius; i <= radius; ++i) {
     float d = texelFetch(depth_map, ivec3(clamp(t.x + i, 0, size - 1), t.y, t.z), 0).r;
     sum += evsm_moments(d, vec2(exponent, 0.0), reverse_z, fp16).xy;
+  }
+  return sum / float(2 * radius + 1);
+}
+
+// The same for a perspective depth-map array (a spot light's maps): each depth is first made
+// linear, (view depth - near) / (far - near) in [0, 1] (linearize_depth; 1 - that value under
+// reverse-Z, so the stored convention is kept), so the warp spreads over distance instead of
+// crowding where perspective depth does. The resolve compares the receiver's view depth mapped
+// the same way.
+vec2 evsm2_moments_box_x_linear(sampler2DArray depth_map, ivec3 t, int radius, int size,
+                                float exponent, float near, float far, bool reverse_z,
+                                bool fp16) {
+  vec2 sum = vec2(0.0);
+  for (int i = -radius; i <= radius; ++i) {
+    float d = texelFetch(depth_map, ivec3(clamp(t.x + i, 0, size - 1), t.y, t.z), 0).r;
+    float l = clamp((linearize_depth(d, near, far, reverse_z) - near) / (far - near), 0.0, 1.0);
+    sum += evsm_moments(reverse_z ? 1.0 - l : l, vec2(exponent, 0.0), reverse_z, fp16).xy;
   }
   return sum / float(2 * radius + 1);
 }

@@ -4,9 +4,17 @@
 // EVSM warp and averages them along x over 2 r + 1 texels (penumbra/vsm.glsl:
 // evsm2_moments_box_x, the exponent clamped for the moment format); pass 1 averages the result
 // along y (moments_box_y) into the moment map the shadow resolve samples. r = push.params.x (shadows.evsm_blur); reads clamp at the
-// map's edges. PENUMBRA_EVSM_FORMAT is the storage format (rg16f or rg32f).
+// map's edges. PENUMBRA_EVSM_FORMAT is the storage format (rg16f or rg32f). The point lights'
+// cubes are read and written face by face the same way; the spot lights' maps
+// (PENUMBRA_EVSM_SPOTS) are perspective and are made linear first, each layer with its own
+// planes (evsm2_moments_box_x_linear).
 #include "penumbra/frame_types.glsl"
+#include "penumbra/shadow_types.glsl"
 #include "penumbra/vsm.glsl"
+
+#ifndef PENUMBRA_EVSM_SPOTS
+#define PENUMBRA_EVSM_SPOTS 0
+#endif
 
 #ifndef PENUMBRA_EVSM_PASS
 #define PENUMBRA_EVSM_PASS 0
@@ -26,6 +34,9 @@ layout(set = 0, binding = 1) uniform sampler2DArray moments_x;  // nearest
 layout(set = 0, binding = 2, PENUMBRA_EVSM_FORMAT) uniform writeonly image2DArray moments;
 #endif
 layout(push_constant) uniform Push { uvec4 params; };  // x blur radius, y resolution
+#if PENUMBRA_EVSM_SPOTS && PENUMBRA_EVSM_PASS == 0
+layout(set = 0, binding = 3) uniform SpotBlock { SpotShadowGpu spot_shadows[kMaxSpotLights]; };
+#endif
 
 void main() {
   ivec3 t = ivec3(gl_GlobalInvocationID);
@@ -33,8 +44,14 @@ void main() {
   if (t.x >= size || t.y >= size) return;
   int r = int(params.x);
 #if PENUMBRA_EVSM_PASS == 0
+#if PENUMBRA_EVSM_SPOTS
+  SpotShadowGpu s = spot_shadows[t.z];
+  vec2 m = evsm2_moments_box_x_linear(shadow_depth, t, r, size, frame.evsm.x, s.position_near.w,
+                                      s.direction_far.w, s.info.y == 1u, frame.evsm.w != 0.0);
+#else
   vec2 m = evsm2_moments_box_x(shadow_depth, t, r, size, frame.evsm.x, frame.mode.y == 1u,
                                frame.evsm.w != 0.0);
+#endif
   imageStore(moments_x, t, vec4(m, 0.0, 0.0));
 #else
   imageStore(moments, t, vec4(moments_box_y(moments_x, t, r, size), 0.0, 0.0));

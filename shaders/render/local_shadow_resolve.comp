@@ -24,6 +24,9 @@
 #ifndef PENUMBRA_POINT_MOMENTS
 #define PENUMBRA_POINT_MOMENTS 0
 #endif
+#ifndef PENUMBRA_SPOT_MOMENTS
+#define PENUMBRA_SPOT_MOMENTS 0
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -46,6 +49,11 @@ layout(set = 0, binding = 10, rgba16f) uniform writeonly image2D local_debug;
 // A point light's own filter = evsm2: the cubes' blurred EVSM2 moments (evsm_moments.comp over
 // every face), linear, sampled across faces.
 layout(set = 0, binding = 11) uniform samplerCubeArray point_moments;
+#endif
+#if PENUMBRA_SPOT_MOMENTS
+// A spot light's own filter = evsm2: its map's blurred EVSM2 moments of linear depth
+// ((view depth - near) / (far - near); evsm2_moments_box_x_linear), linear, clamped.
+layout(set = 0, binding = 12) uniform sampler2DArray spot_moments;
 #endif
 
 // The light's own filter (LightGpu.params.w), else the scene's.
@@ -121,6 +129,15 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   if (filter_mode == kFilterPoisson)
     return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
                              frame.filter_params.w, rotation, texel);
+#if PENUMBRA_SPOT_MOMENTS
+  if (filter_mode == kFilterEvsm2) {
+    // The receiver's view depth mapped as the moments' depths were (1 - t under reverse-Z).
+    float t = clamp((receiver_distance - params.near) / (params.far - params.near), 0.0, 1.0);
+    return evsm2_sample_shadow_array(spot_moments, vec3(coord.xy, reverse_z ? 1.0 - t : t), map,
+                                     frame.evsm.x, frame.evsm.y, frame.evsm.z, reverse_z,
+                                     frame.evsm.w != 0.0);
+  }
+#endif
   // The receiver plane's depth gradient in the map, from two points on the plane a texel's
   // footprint away (receiver_plane_depth_gradient takes any two independent steps).
   vec3 t1, t2;

@@ -176,6 +176,9 @@ struct Renderer::Impl {
     std::unique_ptr<Pass> point_evsm;  // before the local resolve, which samples its moments
     if (req.point_moments && req.point_shadow_cubes > 0)
       point_evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::points);
+    std::unique_ptr<Pass> spot_evsm;
+    if (req.spot_moments && req.spot_shadow_maps > 0)
+      spot_evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::spots);
     std::unique_ptr<Pass> resolve;
     if (req.sun_shadows) resolve = std::make_unique<ShadowResolvePass>(res, *shadow_maps);
     std::unique_ptr<Pass> local_resolve;
@@ -193,6 +196,7 @@ struct Renderer::Impl {
     passes.push_back(std::move(prepass));
     if (evsm) passes.push_back(std::move(evsm));
     if (point_evsm) passes.push_back(std::move(point_evsm));
+    if (spot_evsm) passes.push_back(std::move(spot_evsm));
     if (resolve) passes.push_back(std::move(resolve));
     if (local_resolve) passes.push_back(std::move(local_resolve));
     if (spheres) passes.push_back(std::move(spheres));
@@ -209,6 +213,7 @@ struct Renderer::Impl {
     caps.sun_shadows = res.req.sun_shadows;
     caps.sun_moments = res.req.sun_moments;
     caps.point_moments = res.req.point_moments && res.req.point_shadow_cubes > 0;
+    caps.spot_moments = res.req.spot_moments && res.req.spot_shadow_maps > 0;
     caps.sun_layers = res.req.cascades;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;

@@ -207,8 +207,9 @@ std::vector<Param> make_params() {
        "false: lit but casts no shadows (no cascades are built)"},
       // [shadows]
       {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,
-       "how shadow maps are filtered (`evsm2`: the sun's cascades; a point light takes it as "
-       "its own `filter`; spot and point lights without a filter of their own then use `pcf`)",
+       "how shadow maps are filtered (`evsm2`: the sun's cascades; a spot or point light takes "
+       "it as its own `filter`; spot and point lights without a filter of their own then use "
+       "`pcf`)",
        filters},
       {"shadows.cascades", T::integer, closed(1, 4),
        field<&S::shadows, &ShadowSettings::cascades>(), A::rebuild, "sun cascades"},

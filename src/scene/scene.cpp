@@ -93,7 +93,10 @@ Scene::Requirements Scene::requirements() const {
   r.cascades = !r.sun_shadows                               ? 0
                 : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
                                                           : shadows.cascades;
-  for (const SpotLight& spot : spots) r.spot_shadow_maps += spot.shadows ? 1 : 0;
+  for (const SpotLight& spot : spots) {
+    r.spot_shadow_maps += spot.shadows ? 1 : 0;
+    r.spot_moments = r.spot_moments || (spot.shadows && spot.filter == Filter::evsm2);
+  }
   for (const PointLight& point : points) {
     r.point_shadow_cubes += point.shadows ? 1 : 0;
     r.point_moments = r.point_moments || (point.shadows && point.filter == Filter::evsm2);

@@ -115,15 +115,8 @@ void read_sun(const Reader& r, Scene& scene) {
   read_table(r, "sun", scene);
 }
 
-// A spot or point light's own filter: moments (evsm2) are built for the sun's cascades and for
-// point lights' cubes, not for spot maps.
-std::optional<Filter> local_filter(const Reader& r, bool point) {
-  if (point) return r.opt_enum("filter", kPointFilters);
-  if (r.has("filter") && r.opt_string("filter") == "evsm2") {
-    r.fail_key("filter",
-               "'evsm2' is for the sun's cascades and point lights only; spot lights take hard, "
-               "pcf, pcss or poisson");
-  }
+// A spot or point light's own filter (evsm2: the light's own moments are built).
+std::optional<Filter> local_filter(const Reader& r) {
   return r.opt_enum("filter", kLocalFilters);
 }
 
@@ -159,7 +152,7 @@ void read_spot(const Reader& r, SpotLight& spot) {
   spot.radius = r.numberf("radius", spot.radius, kNonNegative);
   spot.shadows = r.boolean("shadows", spot.shadows);
   spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
-  spot.filter = local_filter(r, false);
+  spot.filter = local_filter(r);
 }
 
 void read_point(const Reader& r, PointLight& point) {
@@ -172,7 +165,7 @@ void read_point(const Reader& r, PointLight& point) {
   point.radius = r.numberf("radius", point.radius, kNonNegative);
   point.shadows = r.boolean("shadows", point.shadows);
   point.resolution = r.uint("resolution", point.resolution, 16, 8192);
-  point.filter = local_filter(r, true);
+  point.filter = local_filter(r);
   point.fit_to_camera = r.boolean("fit_to_camera", point.fit_to_camera);
 }
 

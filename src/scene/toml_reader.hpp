@@ -130,12 +130,8 @@ inline const Names<Filter> kFilters{{"hard", Filter::hard},
                                     {"pcss", Filter::pcss},
                                     {"poisson", Filter::poisson},
                                     {"evsm2", Filter::evsm2}};
-// A spot light's own filter (no moments for spot maps), and a point light's.
+// A spot or point light's own filter.
 inline const Names<Filter> kLocalFilters{{"hard", Filter::hard},
-                                         {"pcf", Filter::pcf},
-                                         {"pcss", Filter::pcss},
-                                         {"poisson", Filter::poisson}};
-inline const Names<Filter> kPointFilters{{"hard", Filter::hard},
                                          {"pcf", Filter::pcf},
                                          {"pcss", Filter::pcss},
                                          {"poisson", Filter::poisson},

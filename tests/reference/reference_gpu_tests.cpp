@@ -321,16 +321,26 @@ position = [-0.6, 0.15, -0.4]
 material = "grey"
 )";
 
-// A point light's own filter = evsm2 (the cubes' moments, face by face, sampled across faces)
-// under a hard light: in both moment formats the umbrae survive and the lit ground stays lit
-// away from shadow edges, as for the sun. Without the moments (the scene's evsm2 only), the light
-// uses pcf and the moments are not built.
-TEST_F(ReferenceGpu, Evsm2OnAPointLightKeepsUmbraeAndLitGroundInBothMomentFormats) {
+// The same lamp as a spot light looking down, its cone over the casters.
+std::string hard_spot_scene() {
+  std::string s = kHardPointScene;
+  const std::string point = "[[point]]\nposition = [0.3, 2.6, 0.2]\n";
+  s.replace(s.find(point), point.size(),
+            "[[spot]]\nposition = [0.3, 2.6, 0.2]\ntarget = [0.2, 0, 0]\nouter_angle = 60\n");
+  return s;
+}
+
+// A spot or point light's own filter = evsm2 (the spot maps' moments of linear depth; the cubes'
+// moments, face by face, sampled across faces) under a hard light: in both moment formats the
+// umbrae survive and the lit ground stays lit away from shadow edges, as for the sun. Without
+// their own evsm2 (the scene's only), the lights use pcf and no moments are built.
+TEST_F(ReferenceGpu, Evsm2OnSpotAndPointLightsKeepsUmbraeAndLitGroundInBothMomentFormats) {
+  for (const std::string& text : {std::string(kHardPointScene), hard_spot_scene()})
   for (const char* fp16 : {"false", "true"}) {
     SCOPED_TRACE(std::string("evsm_fp16 = ") + fp16);
-    scene::Scene s = scene::parse_scene(kHardPointScene, "hard-point.toml", ".");
+    scene::Scene s = scene::parse_scene(text, "hard-light.toml", ".");
     scene::set_param(s, "shadows.evsm_fp16", fp16);
-    ASSERT_TRUE(s.requirements().point_moments);
+    ASSERT_TRUE(s.requirements().point_moments || s.requirements().spot_moments);
     const Agreement a = hard_sun_agreement(ctx(), s);
     ASSERT_GT(a.n, 20000u);
     ASSERT_GT(a.shadowed, 800u);
@@ -338,13 +348,14 @@ TEST_F(ReferenceGpu, Evsm2OnAPointLightKeepsUmbraeAndLitGroundInBothMomentFormat
         << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
     EXPECT_GE(double(a.shadowed_agree) / double(a.shadowed), 0.99)
         << a.shadowed_agree << " of " << a.shadowed << " interior shadowed receivers agree";
-    std::printf("point, evsm_fp16 = %s: %zu of %zu interior agree, %zu of %zu shadowed; %s\n",
-                fp16, a.agree, a.n, a.shadowed_agree, a.shadowed, a.metrics.c_str());
+    std::printf("evsm_fp16 = %s: %zu of %zu interior agree, %zu of %zu shadowed; %s\n", fp16,
+                a.agree, a.n, a.shadowed_agree, a.shadowed, a.metrics.c_str());
   }
   scene::Scene scene_wide = scene::parse_scene(kHardPointScene, "hard-point.toml", ".");
   scene_wide.points[0].filter.reset();
   scene::set_param(scene_wide, "shadows.filter", "evsm2");
   EXPECT_FALSE(scene_wide.requirements().point_moments);
+  EXPECT_FALSE(scene_wide.requirements().spot_moments);
 }
 
 // A fence masked by a texture (the grazing scene's lattice in 1.5 m tiles), leaning between the

@@ -329,16 +329,16 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
               HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
                                              "values: hard, pcf, pcss, poisson, evsm2 (did you "
                                              "mean 'pcf'?)"));
-  // Moments are built for the sun's cascades and point lights' cubes: a spot light's evsm2 is
-  // refused with where and why, a point light's own evsm2 asks for the cubes' moments.
-  const std::string evsm =
-      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox;
-  EXPECT_THAT(error_of(evsm), HasSubstr(at(evsm, "filter") + "[[spot]] #1 filter: 'evsm2' is for "
-                                                             "the sun's cascades and point "
-                                                             "lights only"));
+  // A spot or point light's own evsm2 asks for its own moments, and only those.
+  const Scene spot_evsm = parse(
+      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox);
+  EXPECT_EQ(spot_evsm.spots[0].filter, Filter::evsm2);
+  EXPECT_TRUE(spot_evsm.requirements().spot_moments);
+  EXPECT_FALSE(spot_evsm.requirements().point_moments);
   const Scene point_evsm = parse("[[point]]\nposition = [1, 2, 0]\nfilter = \"evsm2\"\n" + kBox);
   EXPECT_EQ(point_evsm.points[0].filter, Filter::evsm2);
   EXPECT_TRUE(point_evsm.requirements().point_moments);
+  EXPECT_FALSE(point_evsm.requirements().spot_moments);
   EXPECT_FALSE(point_evsm.requirements().sun_moments);
   // Under the sun's evsm2 a light without a filter of its own keeps it unset (pcf is chosen
   // when the frame is packed), and the scene requires the moments only with a shadowed sun.

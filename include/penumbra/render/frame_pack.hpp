@@ -26,6 +26,7 @@ struct FrameCaps {
   bool sun_shadows = false;
   bool sun_moments = false;  // the evsm pass was built (filter = evsm2 is honoured)
   bool point_moments = false;  // the point cubes' evsm pass was built (a point's own evsm2)
+  bool spot_moments = false;   // the spot maps' evsm pass was built (a spot's own evsm2)
   std::uint32_t sun_layers = 8;  // layers of the sun's map (cascades or clipmap levels)
 };
 

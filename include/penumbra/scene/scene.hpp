@@ -102,9 +102,9 @@ struct Sun {
   bool shadows = true;
 };
 
-// evsm2: exponential variance shadow maps: the sun's cascades, and a point light's cube when the
-// light asks for it itself (its own filter); a spot light takes none, and a spot or point light
-// without a filter of its own then uses pcf.
+// evsm2: exponential variance shadow maps: the sun's cascades, and a spot or point light's maps
+// when the light asks for it itself (its own filter); a spot or point light without a filter of
+// its own uses pcf under the scene's evsm2.
 enum class Filter { hard, pcf, pcss, poisson, evsm2 };
 
 struct SpotLight {
@@ -264,6 +264,7 @@ struct Scene {
     bool temporal = false;                 // shadows.temporal and a shadowed light
     bool sun_moments = false;              // sun_shadows with filter = evsm2: the evsm pass
     bool point_moments = false;            // a shadowed point light's own filter is evsm2
+    bool spot_moments = false;             // a shadowed spot light's own filter is evsm2
     std::uint32_t analytic_spheres = 0;    // instances with analytic_shadow, if a light is shadowed
     bool operator==(const Requirements&) const = default;
   };

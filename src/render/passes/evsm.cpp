@@ -2,7 +2,8 @@
 // box-blurred along x, then along y (shaders/render/evsm_moments.comp). The sun's cascades
 // (shadows.filter = evsm2) go into sun-moments, which the shadow resolve samples bilinearly; the
 // point lights' cubes (a point light's own filter = evsm2), face by face, into point-moments, a
-// cube array the local resolve samples across faces. Built only for what the scene asks.
+// cube array the local resolve samples across faces; the spot lights' maps (a spot's own filter
+// = evsm2), made linear first, into spot-moments. Built only for what the scene asks.
 
 #include <penumbra/core/error.hpp>
 
@@ -24,38 +25,44 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
     : source_(source) {
   const bool fp16 = r.scene.shadows.evsm_fp16;
   const bool sun = source == MomentSource::sun;
+  const bool spots = source == MomentSource::spots;
+  const char* const names[] = {"sun", "point", "spot"};
+  const std::string kind = names[int(source)];
   if (!r.ctx.info().storage_image_extended_formats) {
-    throw Error(std::string(sun ? "shadows.filter" : "a [[point]] filter") +
+    throw Error(std::string(sun ? "shadows.filter" : "a [[" + kind + "]] filter") +
                 " = 'evsm2' needs shaderStorageImageExtendedFormats (rg16f / rg32f storage "
                 "images), which " + r.ctx.info().name + " does not have");
   }
-  gpu::Image& depths = sun ? maps.sun_map : maps.point_cubes;
+  gpu::Image& depths = sun ? maps.sun_map : spots ? maps.spot_maps : maps.point_cubes;
   resolution_ = depths.desc().width;
   layers_ = depths.desc().layers;
   const VkFormat format = fp16 ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
-  const std::string name = sun ? "sun-moments" : "point-moments";
+  const std::string name = kind + "-moments";
   moments_x_ = r.make_image(name + "-x", gpu::ImageKind::image_2d_array, format, resolution_,
                             resolution_, layers_, usage);
-  gpu::Image& out = sun ? r.sun_moments : r.point_moments;
-  out = r.make_image(name, sun ? gpu::ImageKind::image_2d_array : gpu::ImageKind::cube_array,
+  gpu::Image& out = sun ? r.sun_moments : spots ? r.spot_moments : r.point_moments;
+  const bool cubes = source == MomentSource::points;
+  out = r.make_image(name, cubes ? gpu::ImageKind::cube_array : gpu::ImageKind::image_2d_array,
                      format, resolution_, resolution_, layers_, usage);
   if (r.linear_clamp.handle() == VK_NULL_HANDLE) {  // shared by the sun's and the points' passes
     gpu::SamplerDesc linear;
     linear.filter = VK_FILTER_LINEAR;
     r.linear_clamp = gpu::Sampler(r.ctx, linear);
   }
+  // The spots' first pass also reads their planes (SpotBlock at 3); both passes share the layout.
+  std::vector<gpu::BindingDesc> bindings{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+                                         {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+                                         {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+  if (spots) bindings.push_back({3, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute});
   layout_ = std::make_unique<gpu::PipelineLayout>(
-      r.ctx,
-      std::vector<std::vector<gpu::BindingDesc>>{
-          {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
-           {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-           {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}}},
-      uint32_t(sizeof(EvsmPush)), kCompute);
+      r.ctx, std::vector<std::vector<gpu::BindingDesc>>{bindings}, uint32_t(sizeof(EvsmPush)),
+      kCompute);
   for (int p = 0; p < 2; ++p) {
-    const std::vector<shader::Define> defines{{"PENUMBRA_EVSM_PASS", std::to_string(p)},
-                                              {"PENUMBRA_EVSM_FORMAT", fp16 ? "rg16f" : "rg32f"}};
-    r.add_pipeline(variant(std::string(sun ? "" : "point-") +
+    std::vector<shader::Define> defines{{"PENUMBRA_EVSM_PASS", std::to_string(p)},
+                                        {"PENUMBRA_EVSM_FORMAT", fp16 ? "rg16f" : "rg32f"}};
+    if (spots) defines.push_back({"PENUMBRA_EVSM_SPOTS", "1"});
+    r.add_pipeline(variant(std::string(sun ? "" : kind + "-") +
                                (p == 0 ? "evsm-moments-x" : "evsm-moments-y"),
                            defines),
                    {{"render/evsm_moments.comp", defines}},
@@ -65,17 +72,18 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
     set_[p] = r.pool.allocate(layout_->set_layout(0));
   }
   // The cubes are read and written as plain 2D arrays, face by face.
-  gpu::DescriptorWriter()
-      .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
-      .combined_image(1, sun ? depths.view() : depths.array_view(), r.raw_depth.handle())
-      .storage_image(2, moments_x_.view())
-      .update(r.ctx, set_[0]);
+  gpu::DescriptorWriter first;
+  first.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
+      .combined_image(1, cubes ? depths.array_view() : depths.view(), r.raw_depth.handle())
+      .storage_image(2, moments_x_.view());
+  if (spots) first.buffer(3, maps.spot_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER);
+  first.update(r.ctx, set_[0]);
   gpu::DescriptorWriter()
       .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(1, moments_x_.view(), r.nearest.handle())
-      .storage_image(2, sun ? out.view() : out.array_view())
+      .storage_image(2, cubes ? out.array_view() : out.view())
       .update(r.ctx, set_[1]);
-  r.report.passes.push_back(std::string(sun ? "evsm" : "evsm-point") + ": moments " +
+  r.report.passes.push_back(std::string(sun ? "evsm" : "evsm-" + kind) + ": moments " +
                             (fp16 ? "rg16f" : "rg32f") + ", " + std::to_string(layers_) +
                             " layer(s), separable box blur");
 }
@@ -85,6 +93,8 @@ EvsmPass::~EvsmPass() = default;
 PassIo EvsmPass::io() const {
   if (source_ == MomentSource::points)
     return {{"frame", "point-shadow-map"}, {"point-moments-x", "point-moments"}};
+  if (source_ == MomentSource::spots)
+    return {{"frame", "spot-shadow-map"}, {"spot-moments-x", "spot-moments"}};
   return {{"frame", "sun-shadow-map"}, {"sun-moments-x", "sun-moments"}};
 }
 
@@ -92,8 +102,9 @@ void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) 
   const EvsmPush push{glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)),
                                  resolution_, 0u, 0u)};
   const uint32_t groups = (resolution_ + 7) / 8;
-  gpu::Image* out[2] = {&moments_x_,
-                        source_ == MomentSource::sun ? &r.sun_moments : &r.point_moments};
+  gpu::Image* out[2] = {&moments_x_, source_ == MomentSource::sun      ? &r.sun_moments
+                                     : source_ == MomentSource::spots  ? &r.spot_moments
+                                                                       : &r.point_moments};
   for (int p = 0; p < 2; ++p) {
     out[p]->transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass_[p]->handle());
@@ -103,7 +114,8 @@ void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) 
     vkCmdDispatch(cmd, groups, groups, layers_);
     out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
   }
-  mark(source_ == MomentSource::sun ? "evsm" : "evsm-point");
+  const char* const marks[] = {"evsm", "evsm-point", "evsm-spot"};
+  mark(marks[int(source_)]);
 }
 
 }  // namespace penumbra::render::passes

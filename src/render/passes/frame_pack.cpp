@@ -47,9 +47,9 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
 }
 
 // LightGpu.params.w: a local light's own filter, else -1 (the scene's). Moments are built for
-// the sun and for point lights whose own filter is evsm2 (`moments`: they were built), so under
-// the scene's evsm2 a light without a filter of its own uses pcf, and so does a point light's
-// own evsm2 without its moments.
+// the sun and for the spot and point lights whose own filter is evsm2 (`moments`: they were
+// built), so under the scene's evsm2 a light without a filter of its own uses pcf, and so does a
+// light's own evsm2 without its moments.
 float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> own,
                         bool moments = false) {
   if (own == scene::Filter::evsm2 && !moments) return float(filter_index(scene::Filter::pcf));
@@ -73,7 +73,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
         glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
     l.color_intensity = glm::vec4(s.color, s.intensity);
     l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius,
-                         local_filter_slot(scene, s.filter));
+                         local_filter_slot(scene, s.filter, caps.spot_moments));
     if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
       shadow::SpotLight sl;
       sl.position = to_d(s.position);

@@ -69,6 +69,7 @@ struct FrameResources {
   // A point light's own filter = evsm2 (EvsmPass over the cubes): every cube's moments, a cube
   // array like the cubes.
   gpu::Image point_moments;
+  gpu::Image spot_moments;  // a spot light's own filter = evsm2: every spot map's moments
   gpu::Sampler linear_clamp;
   gpu::Sampler nearest, shadow_compare, raw_depth;
   // The scene's mask textures (R8, Scene::mask_images() order) with their linear, repeating
@@ -180,9 +181,10 @@ class PrepassPass final : public Pass {
 
 // The sun's EVSM2 moments (filter = evsm2): each cascade's depths warped into moments and
 // box-blurred, x then y (shaders/render/evsm_moments.comp), into sun-moments.
-// Which shadow maps the evsm pass turns into moments: the sun's cascades, or the point lights'
-// cubes (face by face, into a cube array the local resolve samples).
-enum class MomentSource { sun, points };
+// Which shadow maps the evsm pass turns into moments: the sun's cascades, the point lights'
+// cubes (face by face, into a cube array the local resolve samples), or the spot lights' maps
+// (made linear first, each with its own planes).
+enum class MomentSource { sun, points, spots };
 
 class EvsmPass final : public Pass {
  public:
@@ -222,7 +224,7 @@ class LocalShadowResolvePass final : public Pass {
 
  private:
   PerPixelCompute compute_;
-  bool moments_ = false;  // a point light's own evsm2: it reads point-moments
+  bool point_moments_ = false, spot_moments_ = false;  // lights' own evsm2: it reads their moments
 };
 
 // Analytic sphere shadows: every shadowed light's visibility (shadow-info, local-shadow) times

@@ -36,13 +36,17 @@ std::vector<shader::Define> sun_resolve_defines(const FrameResources& r) {
   return {{"PENUMBRA_SUN_MOMENTS", "1"}};
 }
 
-// A point light's own evsm2: the point cubes' moments were built (EvsmPass, points).
+// A point or spot light's own evsm2: their moments were built (EvsmPass, points or spots).
 bool point_moments(const FrameResources& r) {
   return r.req.point_moments && r.req.point_shadow_cubes > 0;
 }
+bool spot_moments(const FrameResources& r) {
+  return r.req.spot_moments && r.req.spot_shadow_maps > 0;
+}
 
 // Frame, depth, normals and the two outputs, then per light type present its block, its compare
-// view and its raw view (spots at 3-5, points at 6-8); the point cubes' moments at 11.
+// view and its raw view (spots at 3-5, points at 6-8); the point cubes' moments at 11, the spot
+// maps' at 12.
 std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
   std::vector<gpu::BindingDesc> b{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
                                   {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
@@ -56,6 +60,7 @@ std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
     b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   }
   if (point_moments(r)) b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  if (spot_moments(r)) b.push_back({12, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   return b;
 }
 
@@ -63,6 +68,7 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
   const auto all = light_defines(r);
   std::vector<shader::Define> d{all[2], all[3]};
   if (point_moments(r)) d.push_back({"PENUMBRA_POINT_MOMENTS", "1"});
+  if (spot_moments(r)) d.push_back({"PENUMBRA_SPOT_MOMENTS", "1"});
   return d;
 }
 
@@ -129,15 +135,18 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
         .combined_image(8, maps.point_cubes.view(), r.raw_depth.handle());
   }
   if (point_moments(r)) w.combined_image(11, r.point_moments.view(), r.linear_clamp.handle());
+  if (spot_moments(r)) w.combined_image(12, r.spot_moments.view(), r.linear_clamp.handle());
   w.update(r.ctx, compute_.set());
-  moments_ = point_moments(r);
+  point_moments_ = point_moments(r);
+  spot_moments_ = spot_moments(r);
   r.report.passes.push_back("local-shadow-resolve: compute");
 }
 
 PassIo LocalShadowResolvePass::io() const {
   PassIo io{{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"},
             {"local-shadow", "local-shadow-debug"}};
-  if (moments_) io.reads.push_back("point-moments");
+  if (point_moments_) io.reads.push_back("point-moments");
+  if (spot_moments_) io.reads.push_back("spot-moments");
   return io;
 }
 
