@@ -174,10 +174,10 @@ struct Renderer::Impl {
     std::unique_ptr<Pass> evsm;  // before the resolve, which samples its moments
     if (req.sun_moments) evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::sun);
     std::unique_ptr<Pass> point_evsm;  // before the local resolve, which samples its moments
-    if (req.point_moments && req.point_shadow_cubes > 0)
+    if (req.point_moments)
       point_evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::points);
     std::unique_ptr<Pass> spot_evsm;
-    if (req.spot_moments && req.spot_shadow_maps > 0)
+    if (req.spot_moments)
       spot_evsm = std::make_unique<EvsmPass>(res, *shadow_maps, MomentSource::spots);
     std::unique_ptr<Pass> resolve;
     if (req.sun_shadows) resolve = std::make_unique<ShadowResolvePass>(res, *shadow_maps);
@@ -212,8 +212,8 @@ struct Renderer::Impl {
     caps.contact_pass = res.contact_mask != nullptr;
     caps.sun_shadows = res.req.sun_shadows;
     caps.sun_moments = res.req.sun_moments;
-    caps.point_moments = res.req.point_moments && res.req.point_shadow_cubes > 0;
-    caps.spot_moments = res.req.spot_moments && res.req.spot_shadow_maps > 0;
+    caps.point_moments = res.req.point_moments;
+    caps.spot_moments = res.req.spot_moments;
     caps.sun_layers = res.req.cascades;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;

@@ -201,15 +201,15 @@ std::vector<uint8_t> interior(const LightMeasurement& l, uint32_t w, uint32_t h,
   return out;
 }
 
-// Interior receivers (away from shadow edges) of a hard sun where the rasterizer and the
-// reference agree on lit or shadowed: all of them, and the shadowed ones alone.
+// Interior receivers (away from shadow edges) of a scene's one hard light where the rasterizer
+// and the reference agree on lit or shadowed: all of them, and the shadowed ones alone.
 struct Agreement {
   size_t n = 0, agree = 0, shadowed = 0, shadowed_agree = 0;
   std::string metrics;
   // Per pixel: interior, and lit (visibility >= 0.5) in the reference and on the GPU.
   std::vector<uint8_t> inner, reference_lit, gpu_lit;
 };
-Agreement hard_sun_agreement(gpu::Context& c, const scene::Scene& s) {
+Agreement hard_light_agreement(gpu::Context& c, const scene::Scene& s) {
   render::RendererOptions ro;
   ro.visibility_output = true;
   render::Renderer r(c, s, ro);
@@ -240,7 +240,7 @@ Agreement hard_sun_agreement(gpu::Context& c, const scene::Scene& s) {
 
 TEST_F(ReferenceGpu, HardSunAgreesWithTheRasterizerAwayFromShadowEdges) {
   const Agreement a =
-      hard_sun_agreement(ctx(), scene::parse_scene(kHardSunScene, "hard-sun.toml", "."));
+      hard_light_agreement(ctx(), scene::parse_scene(kHardSunScene, "hard-sun.toml", "."));
   ASSERT_GT(a.n, 50000u);
   ASSERT_GT(a.shadowed, 800u);  // there are shadows to agree on
   EXPECT_GE(double(a.agree) / double(a.n), 0.995)
@@ -262,7 +262,7 @@ TEST_F(ReferenceGpu, Evsm2OnTheSunKeepsUmbraeAndLitGroundInBothMomentFormats) {
     scene::set_param(s, "shadows.evsm_fp16", fp16);
     scene::set_param(s, "shadows.resolution", "2048");  // a quarter of the moments to write
     ASSERT_TRUE(s.requirements().sun_moments);
-    const Agreement a = hard_sun_agreement(ctx(), s);
+    const Agreement a = hard_light_agreement(ctx(), s);
     ASSERT_GT(a.n, 50000u);
     ASSERT_GT(a.shadowed, 800u);
     EXPECT_GE(double(a.agree) / double(a.n), 0.995)
@@ -341,7 +341,7 @@ TEST_F(ReferenceGpu, Evsm2OnSpotAndPointLightsKeepsUmbraeAndLitGroundInBothMomen
     scene::Scene s = scene::parse_scene(text, "hard-light.toml", ".");
     scene::set_param(s, "shadows.evsm_fp16", fp16);
     ASSERT_TRUE(s.requirements().point_moments || s.requirements().spot_moments);
-    const Agreement a = hard_sun_agreement(ctx(), s);
+    const Agreement a = hard_light_agreement(ctx(), s);
     ASSERT_GT(a.n, 20000u);
     ASSERT_GT(a.shadowed, 800u);
     EXPECT_GE(double(a.agree) / double(a.n), 0.99)
@@ -377,7 +377,7 @@ material = "lattice"
 )";
   const scene::Scene masked = scene::parse_scene(fence, "fence.toml", ".");
   ASSERT_EQ(masked.requirements().mask_textures, 1u);
-  const Agreement a = hard_sun_agreement(ctx(), masked);
+  const Agreement a = hard_light_agreement(ctx(), masked);
   ASSERT_GT(a.n, 30000u);
   EXPECT_GE(double(a.agree) / double(a.n), 0.995)
       << a.agree << " of " << a.n << " interior receivers agree; metrics: " << a.metrics;
@@ -388,7 +388,7 @@ material = "lattice"
     m.alpha = scene::AlphaMode::opaque;
     m.mask = scene::MaskPattern::none;
   }
-  const Agreement o = hard_sun_agreement(ctx(), opaque);
+  const Agreement o = hard_light_agreement(ctx(), opaque);
   size_t holes = 0, holes_lit = 0;
   for (size_t i = 0; i < a.inner.size(); ++i) {
     if (!a.inner[i] || o.reference_lit[i] || !a.reference_lit[i]) continue;

@@ -263,8 +263,10 @@ struct Scene {
     std::uint32_t mask_textures = 0;       // distinct mask textures those materials sample
     bool temporal = false;                 // shadows.temporal and a shadowed light
     bool sun_moments = false;              // sun_shadows with filter = evsm2: the evsm pass
-    bool point_moments = false;            // a shadowed point light's own filter is evsm2
-    bool spot_moments = false;             // a shadowed spot light's own filter is evsm2
+    // A shadowed point (spot) light's own filter is evsm2: implies point_shadow_cubes
+    // (spot_shadow_maps) > 0.
+    bool point_moments = false;
+    bool spot_moments = false;
     std::uint32_t analytic_spheres = 0;    // instances with analytic_shadow, if a light is shadowed
     bool operator==(const Requirements&) const = default;
   };

@@ -36,14 +36,6 @@ std::vector<shader::Define> sun_resolve_defines(const FrameResources& r) {
   return {{"PENUMBRA_SUN_MOMENTS", "1"}};
 }
 
-// A point or spot light's own evsm2: their moments were built (EvsmPass, points or spots).
-bool point_moments(const FrameResources& r) {
-  return r.req.point_moments && r.req.point_shadow_cubes > 0;
-}
-bool spot_moments(const FrameResources& r) {
-  return r.req.spot_moments && r.req.spot_shadow_maps > 0;
-}
-
 // Frame, depth, normals and the two outputs, then per light type present its block, its compare
 // view and its raw view (spots at 3-5, points at 6-8); the point cubes' moments at 11, the spot
 // maps' at 12.
@@ -59,16 +51,16 @@ std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
     b.push_back({first + 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
     b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   }
-  if (point_moments(r)) b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
-  if (spot_moments(r)) b.push_back({12, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  if (r.req.point_moments) b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  if (r.req.spot_moments) b.push_back({12, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   return b;
 }
 
 std::vector<shader::Define> local_defines(const FrameResources& r) {
   const auto all = light_defines(r);
   std::vector<shader::Define> d{all[2], all[3]};
-  if (point_moments(r)) d.push_back({"PENUMBRA_POINT_MOMENTS", "1"});
-  if (spot_moments(r)) d.push_back({"PENUMBRA_SPOT_MOMENTS", "1"});
+  if (r.req.point_moments) d.push_back({"PENUMBRA_POINT_MOMENTS", "1"});
+  if (r.req.spot_moments) d.push_back({"PENUMBRA_SPOT_MOMENTS", "1"});
   return d;
 }
 
@@ -134,11 +126,11 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
         .combined_image(7, maps.point_cubes.view(), r.shadow_compare.handle())
         .combined_image(8, maps.point_cubes.view(), r.raw_depth.handle());
   }
-  if (point_moments(r)) w.combined_image(11, r.point_moments.view(), r.linear_clamp.handle());
-  if (spot_moments(r)) w.combined_image(12, r.spot_moments.view(), r.linear_clamp.handle());
+  if (r.req.point_moments) w.combined_image(11, r.point_moments.view(), r.linear_clamp.handle());
+  if (r.req.spot_moments) w.combined_image(12, r.spot_moments.view(), r.linear_clamp.handle());
   w.update(r.ctx, compute_.set());
-  point_moments_ = point_moments(r);
-  spot_moments_ = spot_moments(r);
+  point_moments_ = r.req.point_moments;
+  spot_moments_ = r.req.spot_moments;
   r.report.passes.push_back("local-shadow-resolve: compute");
 }
 
