@@ -118,4 +118,26 @@ vec3 world_position_from_view(vec3 view_position, mat4 inv_view) {
          inv_view[2].xyz * view_position.z + inv_view[3].xyz;
 }
 
+// Returns where the ray from eye through `through` meets the plane through p with normal n (need
+// not be unit), for a screen-space footprint: with `through` a neighbouring pixel's point, the
+// difference from p is how far the surface moves across one pixel (a compute pass has no
+// derivatives). The move is capped at max_stretch times |through - p|: a ray that grazes the
+// plane, runs parallel to it or meets it behind the eye gives the capped move along its own
+// direction from p instead of an unbounded one. max_stretch >= 1.
+vec3 ray_plane_point(vec3 eye, vec3 through, vec3 p, vec3 n, float max_stretch) {
+  vec3 dir = through - eye;
+  vec3 step = through - p;
+  float cap = max_stretch * length(step);
+  float denom = dot(dir, n);
+  float t = dot(p - eye, n) / denom;  // t = 1 at `through`
+  vec3 hit = eye + dir * t;
+  vec3 move = hit - p;
+  float moved = length(move);
+  if (!(t > 0.0) || !(moved <= cap)) {  // behind the eye, parallel (inf / NaN) or too far
+    float len = length(dir);
+    return len > 0.0 ? p + dir * (cap / len) : p;
+  }
+  return hit;
+}
+
 #endif  // PENUMBRA_DEPTH_GLSL

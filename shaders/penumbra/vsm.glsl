@@ -196,6 +196,25 @@ float evsm2_sample_shadow_array(sampler2DArray moment_maps, vec3 coord, int laye
   return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
 }
 
+// Returns the EVSM2 shadow factor at coord from layer `layer` of a moment map array with mips,
+// read over the receiver's footprint in the map: duv_dx and duv_dy are how far coord.xy moves
+// across one screen pixel in x and in y. The level is the one whose texels match the footprint's
+// shorter side (trilinear between levels): where a pixel covers many texels in both directions,
+// the moments come prefiltered over them instead of from a 2x2 bilinear read. The shorter side,
+// not the longer (textureGrad's choice without anisotropy): on grazing ground the longer one
+// blurred the shadows twice as far from the reference (docs/accuracy.md, "EVSM2 mips").
+float evsm2_sample_shadow_array_footprint(sampler2DArray moment_maps, vec3 coord, int layer,
+                                          vec2 duv_dx, vec2 duv_dy, float exponent,
+                                          float min_variance, float bleed_reduction,
+                                          bool reverse_z, bool fp16) {
+  if (!vsm_coord_in_map(coord)) return 1.0;
+  vec2 size = vec2(textureSize(moment_maps, 0).xy);
+  float texels = min(length(duv_dx * size), length(duv_dy * size));
+  float lod = log2(max(texels, 1e-8));
+  vec2 moments = textureLod(moment_maps, vec3(coord.xy, float(layer)), lod).xy;
+  return evsm2_shadow(moments, coord.z, exponent, min_variance, bleed_reduction, reverse_z, fp16);
+}
+
 // Returns the EVSM2 shadow factor of a point light's cube `layer` of a moment cube array, seen
 // along dir (light to receiver; need not be unit): ref is what the cube would store at the
 // receiver (cube_compare_depth, local_shadow.glsl), in the depth convention the moments were

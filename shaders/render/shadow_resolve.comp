@@ -27,8 +27,10 @@ layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D shadow_info;
 layout(set = 0, binding = 7) uniform sampler2DArray sun_moments;
 #endif
 
-// Visibility from one cascade, with its penumbra width (texels) for the debug view.
-float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out float penumbra) {
+// Visibility from one cascade, with its penumbra width (texels) for the debug view. dpdx, dpdy:
+// how far the receiver's surface moves across one pixel (evsm2 with mips reads its footprint).
+float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 dpdx, vec3 dpdy,
+                         out float penumbra) {
   penumbra = 0.0;
   CascadeGpu cascade = shadow.cascades[c];
   float texel_world = cascade.params.x;
@@ -53,8 +55,8 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
       normal_offset(n, to_light, texel_world, filter_normal_offset_texels(frame.bias.x, reach));
   float bias = world_depth_bias(dot(n, to_light), frame.bias.z, frame.bias.y, frame.bias.w,
                                 texel_world);
-  vec3 coord =
-      world_to_shadow_coord(cascade.view_proj, bias_toward_light(p + offset, to_light, bias));
+  vec3 biased = bias_toward_light(p + offset, to_light, bias);
+  vec3 coord = world_to_shadow_coord(cascade.view_proj, biased);
   vec2 texel = vec2(1.0 / float(shadow.counts.z));
   float rotation = 6.2831853 * interleaved_gradient_noise_temporal(pixel, frame.mode.x);
   PcssParams params;
@@ -78,6 +80,13 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, out f
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
 #if PENUMBRA_SUN_MOMENTS
+  if (filter_mode == kFilterEvsm2 && frame.filter_world.z != 0.0) {  // shadows.evsm_mips
+    vec2 duv_dx = world_to_shadow_coord(cascade.view_proj, biased + dpdx).xy - coord.xy;
+    vec2 duv_dy = world_to_shadow_coord(cascade.view_proj, biased + dpdy).xy - coord.xy;
+    return evsm2_sample_shadow_array_footprint(sun_moments, coord, c, duv_dx, duv_dy,
+                                               frame.evsm.x, frame.evsm.y, frame.evsm.z,
+                                               reverse_z, frame.evsm.w != 0.0);
+  }
   if (filter_mode == kFilterEvsm2)
     return evsm2_sample_shadow_array(sun_moments, coord, c, frame.evsm.x, frame.evsm.y,
                                      frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
@@ -114,6 +123,12 @@ int select_cascade_containing(vec3 p, int count) {
                                     float(shadow.counts.z));
 }
 
+// The camera-relative world position seen at screen uv with depth buffer value depth.
+vec3 unproject(vec2 uv, float depth) {
+  vec4 h = frame.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
+  return h.xyz / h.w;
+}
+
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
   ivec2 size = ivec2(frame.viewport.xy);
@@ -125,9 +140,7 @@ void main() {
   }
   float depth = texelFetch(scene_depth, pixel, 0).r;
   vec2 uv = (vec2(pixel) + 0.5) * frame.viewport.zw;
-  vec4 clip = vec4(uv * 2.0 - 1.0, depth, 1.0);
-  vec4 h = frame.inv_view_proj * clip;
-  vec3 p = h.xyz / h.w;
+  vec3 p = unproject(uv, depth);
   // The prepass stores view-space normals; the view matrix is a rotation (camera-relative).
   vec3 n = normalize(transpose(mat3(frame.view)) * nrm.xyz);
   vec3 to_light = shadow.light_dir_angular.xyz;
@@ -137,6 +150,14 @@ void main() {
   bool by_containment = shadow.modes.x == 1u || shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP;
   int c = by_containment ? select_cascade_containing(p, count)
                          : select_cascade_by_depth(view_depth, shadow.splits, count);
+  // The surface's move across one pixel, on its tangent plane (the neighbours' rays through it,
+  // capped at 64 pixels' worth where they graze it): evsm2 with mips reads that footprint.
+  vec3 dpdx = vec3(0.0), dpdy = vec3(0.0);
+  if (frame.mode.z == kFilterEvsm2 && frame.filter_world.z != 0.0) {
+    vec3 eye = shadow.camera_position.xyz;
+    dpdx = ray_plane_point(eye, unproject(uv + vec2(frame.viewport.z, 0.0), depth), p, n, 64.0) - p;
+    dpdy = ray_plane_point(eye, unproject(uv + vec2(0.0, frame.viewport.w), depth), p, n, 64.0) - p;
+  }
   float visibility = 1.0;
   float penumbra = 0.0;
   float texel_world = 0.0;
@@ -145,7 +166,7 @@ void main() {
     penumbra = -1.0;   // marks "self-shadowed" for the debug views and tests
     texel_world = c < count ? shadow.cascades[c].params.x : 0.0;
   } else if (c < count) {
-    visibility = cascade_visibility(c, p, n, to_light, vec2(pixel), penumbra);
+    visibility = cascade_visibility(c, p, n, to_light, vec2(pixel), dpdx, dpdy, penumbra);
     texel_world = shadow.cascades[c].params.x;
     // Blending follows the view-distance slices; a cascade chosen by containment is used alone.
     float blend = by_containment ? 0.0
@@ -153,7 +174,8 @@ void main() {
                                                          shadow.selection.x, shadow.selection.y);
     if (blend > 0.0) {
       float next_penumbra;
-      float next = cascade_visibility(c + 1, p, n, to_light, vec2(pixel), next_penumbra);
+      float next =
+          cascade_visibility(c + 1, p, n, to_light, vec2(pixel), dpdx, dpdy, next_penumbra);
       visibility = mix(visibility, next, blend);
     }
     // A clipmap ends where its coarsest level does (c == count: lit), not at a view distance.

@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cstring>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
@@ -373,17 +374,81 @@ void Image::upload_floats(std::span<const float> values, VkImageLayout final_lay
   upload(std::as_bytes(values), final_layout);
 }
 
-std::vector<std::byte> Image::download() {
-  const size_t bytes =
-      size_t{format_texel_size(desc_.format)} * desc_.width * desc_.height * desc_.layers;
+uint32_t full_mip_count(uint32_t width, uint32_t height) {
+  uint32_t levels = 1;
+  for (uint32_t size = std::max(width, height); size > 1; size /= 2) ++levels;
+  return levels;
+}
+
+bool mips_supported(Context& ctx, VkFormat format) {
+  VkFormatProperties props{};
+  vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), format, &props);
+  const VkFormatFeatureFlags need = VK_FORMAT_FEATURE_BLIT_SRC_BIT |
+                                    VK_FORMAT_FEATURE_BLIT_DST_BIT |
+                                    VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT;
+  return (props.optimalTilingFeatures & need) == need;
+}
+
+void Image::generate_mips(VkCommandBuffer cmd, VkImageLayout final_layout) {
+  if (final_layout == VK_IMAGE_LAYOUT_UNDEFINED) {
+    throw Error("Image::generate_mips: cannot leave the image in VK_IMAGE_LAYOUT_UNDEFINED");
+  }
+  // One barrier per step over a range of levels; the whole-pipeline scope of transition().
+  auto barrier = [&](uint32_t level, uint32_t count, VkImageLayout from, VkImageLayout to) {
+    VkImageMemoryBarrier2 b{VK_STRUCTURE_TYPE_IMAGE_MEMORY_BARRIER_2};
+    layout_scope(from, b.srcStageMask, b.srcAccessMask);
+    layout_scope(to, b.dstStageMask, b.dstAccessMask);
+    b.oldLayout = from;
+    b.newLayout = to;
+    b.srcQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.dstQueueFamilyIndex = VK_QUEUE_FAMILY_IGNORED;
+    b.image = image_;
+    b.subresourceRange = {aspect(), level, count, 0, desc_.layers};
+    VkDependencyInfo dep{VK_STRUCTURE_TYPE_DEPENDENCY_INFO};
+    dep.imageMemoryBarrierCount = 1;
+    dep.pImageMemoryBarriers = &b;
+    vkCmdPipelineBarrier2(cmd, &dep);
+  };
+  const uint32_t levels = desc_.mip_levels;
+  barrier(0, 1, layout_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+  if (levels > 1) {
+    // The levels below are overwritten whole: their old contents need not survive.
+    barrier(1, levels - 1, VK_IMAGE_LAYOUT_UNDEFINED, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
+  }
+  int32_t w = int32_t(desc_.width), h = int32_t(desc_.height);
+  for (uint32_t level = 1; level < levels; ++level) {
+    const int32_t nw = std::max(w / 2, 1), nh = std::max(h / 2, 1);
+    VkImageBlit blit{};
+    blit.srcSubresource = {aspect(), level - 1, 0, desc_.layers};
+    blit.srcOffsets[1] = {w, h, 1};
+    blit.dstSubresource = {aspect(), level, 0, desc_.layers};
+    blit.dstOffsets[1] = {nw, nh, 1};
+    vkCmdBlitImage(cmd, image_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, image_,
+                   VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, 1, &blit, VK_FILTER_LINEAR);
+    barrier(level, 1, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+    w = nw;
+    h = nh;
+  }
+  barrier(0, levels, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, final_layout);
+  layout_ = final_layout;
+}
+
+std::vector<std::byte> Image::download(uint32_t level) {
+  if (level >= desc_.mip_levels) {
+    throw Error("Image::download: mip " + std::to_string(level) + " out of range (" +
+                std::to_string(desc_.mip_levels) + " mips)");
+  }
+  const uint32_t width = std::max(desc_.width >> level, 1u);
+  const uint32_t height = std::max(desc_.height >> level, 1u);
+  const size_t bytes = size_t{format_texel_size(desc_.format)} * width * height * desc_.layers;
   Buffer staging(*ctx_, bytes, 0, MemoryUse::host);
   const VkImageLayout keep =
       layout_ == VK_IMAGE_LAYOUT_UNDEFINED ? VK_IMAGE_LAYOUT_GENERAL : layout_;
   submit_one_shot(*ctx_, [&](VkCommandBuffer cmd) {
     transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
     VkBufferImageCopy region{};
-    region.imageSubresource = {aspect(), 0, 0, desc_.layers};
-    region.imageExtent = {desc_.width, desc_.height, 1};
+    region.imageSubresource = {aspect(), level, 0, desc_.layers};
+    region.imageExtent = {width, height, 1};
     vkCmdCopyImageToBuffer(cmd, image_, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, staging.handle(), 1,
                            &region);
     transition(cmd, keep);

@@ -360,6 +360,10 @@ std::vector<Param> make_params() {
        A::rebuild,
        "`evsm2`: store the moments in 16-bit floats (half the memory and bandwidth; the exponent "
        "is then clamped to 5.54, against 42 in 32-bit floats)"},
+      {"shadows.evsm_mips", T::boolean, kAny, field<&S::shadows, &ShadowSettings::evsm_mips>(),
+       A::rebuild,
+       "`evsm2`: give the sun's moments mips and read each pixel's footprint in the map through "
+       "them (prefiltered where a pixel covers many texels: distant and grazing ground)"},
       {"shadows.evsm_exponent",
        T::number,
        ParamRange{0.0, 42.0, true, false},

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
@@ -14,6 +15,7 @@
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <random>
+#include <span>
 
 namespace penumbra {
 namespace {
@@ -170,6 +172,66 @@ TEST_F(GpuTest, DepthUploadRoundTripsForEveryKind) {
     ASSERT_EQ(bytes.size(), depth.size() * 4);
     EXPECT_EQ(std::memcmp(bytes.data(), depth.data(), bytes.size()), 0);
   }
+}
+
+// Each generated level is a linear blit of the one above: a bilinear read at the centre of every
+// new texel, mapped into the level above (a 2x2 average where the size halves, the middle row
+// where 3 rows become 1). The reference computes exactly that, layer by layer, in doubles.
+TEST_F(GpuTest, GeneratedMipsAreLinearBlitsOfTheLevelAbove) {
+  if (!gpu::mips_supported(ctx(), VK_FORMAT_R32G32_SFLOAT)) {
+    GTEST_SKIP() << "rg32f blits with linear filtering are not supported here";
+  }
+  gpu::ImageDesc d;
+  d.kind = gpu::ImageKind::image_2d_array;
+  d.format = VK_FORMAT_R32G32_SFLOAT;
+  d.width = 8;
+  d.height = 6;
+  d.layers = 2;
+  d.mip_levels = gpu::full_mip_count(d.width, d.height);
+  ASSERT_EQ(d.mip_levels, 4u);  // 8x6, 4x3, 2x1, 1x1
+  d.usage = VK_IMAGE_USAGE_SAMPLED_BIT;
+  gpu::Image image(ctx(), d);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> value(0.0f, 1.0f);
+  std::vector<float> level(size_t{d.width} * d.height * d.layers * 2);
+  for (float& v : level) v = value(rng);
+  image.upload(std::as_bytes(std::span<const float>(level)));
+  gpu::submit_one_shot(ctx(), [&](VkCommandBuffer cmd) { image.generate_mips(cmd); });
+  EXPECT_EQ(image.layout(), VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  int w = int(d.width), h = int(d.height);
+  for (uint32_t mip = 1; mip < d.mip_levels; ++mip) {
+    const int nw = std::max(w / 2, 1), nh = std::max(h / 2, 1);
+    std::vector<float> expected(size_t(nw) * nh * d.layers * 2);
+    auto at = [&](uint32_t layer, int x, int y, int ch) {
+      x = std::clamp(x, 0, w - 1);
+      y = std::clamp(y, 0, h - 1);
+      return double(level[((size_t(layer) * h + y) * w + x) * 2 + ch]);
+    };
+    for (uint32_t layer = 0; layer < d.layers; ++layer)
+      for (int y = 0; y < nh; ++y)
+        for (int x = 0; x < nw; ++x) {
+          const double sx = (x + 0.5) * w / nw - 0.5, sy = (y + 0.5) * h / nh - 0.5;
+          const int x0 = int(std::floor(sx)), y0 = int(std::floor(sy));
+          const double fx = sx - x0, fy = sy - y0;
+          for (int ch = 0; ch < 2; ++ch) {
+            const double top = at(layer, x0, y0, ch) * (1 - fx) + at(layer, x0 + 1, y0, ch) * fx;
+            const double bottom =
+                at(layer, x0, y0 + 1, ch) * (1 - fx) + at(layer, x0 + 1, y0 + 1, ch) * fx;
+            expected[((size_t(layer) * nh + y) * nw + x) * 2 + ch] =
+                float(top * (1 - fy) + bottom * fy);
+          }
+        }
+    const auto bytes = image.download(mip);
+    ASSERT_EQ(bytes.size(), expected.size() * sizeof(float)) << "mip " << mip;
+    std::vector<float> got(expected.size());
+    std::memcpy(got.data(), bytes.data(), bytes.size());
+    for (size_t i = 0; i < got.size(); ++i)
+      ASSERT_NEAR(got[i], expected[i], 1e-4) << "mip " << mip << ", value " << i;
+    level = got;
+    w = nw;
+    h = nh;
+  }
+  EXPECT_THROW((void)image.download(d.mip_levels), Error);
 }
 
 TEST_F(GpuTest, ImageDescriptionErrorsNameTheProblem) {

@@ -1,6 +1,7 @@
 // The reference against the GPU: the alpha mask it evaluates is the shaders' mask; with a hard
 // light and a fine shadow map it agrees with the rasterizer away from shadow edges; every
 // shipped scene meets its accuracy budget and writes its images; bad frames give defined results.
+#include <gmock/gmock.h>
 #include <gtest/gtest.h>
 #include <unistd.h>
 
@@ -20,6 +21,8 @@ namespace {
 
 namespace fs = std::filesystem;
 using testing::GpuTest;
+using ::testing::HasSubstr;
+using ::testing::Not;
 
 class ReferenceGpu : public GpuTest {};
 
@@ -272,6 +275,55 @@ TEST_F(ReferenceGpu, Evsm2OnTheSunKeepsUmbraeAndLitGroundInBothMomentFormats) {
     std::printf("evsm_fp16 = %s: %zu of %zu interior agree, %zu of %zu shadowed\n", fp16,
                 a.agree, a.n, a.shadowed_agree, a.shadowed);
   }
+}
+
+// shadows.evsm_mips: the sun's moments get mips and each pixel reads its footprint in the map
+// through them. On this scene a pixel covers one texel near the camera and several further
+// away, so the prefiltering must show there, and only there: at shadow edges (softened over the
+// footprint). Away from the reference's edges the image must not move (a level picked too
+// coarse bleeds light into umbrae and shadow onto lit ground), and mips must not be built when
+// the key is off.
+TEST_F(ReferenceGpu, Evsm2MipsChangeOnlyShadowEdgesWherePixelsCoverSeveralTexels) {
+  auto measure = [&](const char* mips, std::string& report) {
+    // A pixel over 1 to 8 texels of the 2048 map.
+    std::string text = kHardSunScene;
+    const std::string size = "width = 480\nheight = 270";
+    text.replace(text.find(size), size.size(), "width = 240\nheight = 135");
+    scene::Scene s = scene::parse_scene(text, "hard-sun.toml", ".");
+    scene::set_param(s, "shadows.filter", "evsm2");
+    scene::set_param(s, "shadows.resolution", "2048");
+    scene::set_param(s, "shadows.evsm_mips", mips);
+    render::RendererOptions ro;
+    ro.visibility_output = true;
+    render::Renderer r(ctx(), s, ro);
+    report = r.built().to_string();
+    r.render(0);
+    return measure_frame(r, MeasureOptions{});
+  };
+  std::string off_report, on_report;
+  const FrameMeasurement off = measure("false", off_report);
+  const FrameMeasurement on = measure("true", on_report);
+  EXPECT_THAT(on_report, HasSubstr("sun-moments 2048x2048 RG16F, 12 mips"));
+  EXPECT_THAT(off_report, Not(HasSubstr("mips")));
+  ASSERT_EQ(on.lights.size(), 1u);
+  const LightMeasurement& a = off.lights[0];
+  const LightMeasurement& b = on.lights[0];
+  const auto inner = interior(b, on.width, on.height, 2);
+  size_t changed = 0, changed_inner = 0, n_inner = 0;
+  for (size_t i = 0; i < inner.size(); ++i) {
+    if (b.classes[i] != ReceiverClass::lit) continue;
+    const bool moved = std::abs(b.gpu[i] - a.gpu[i]) > 2.0f / 255.0f;
+    changed += moved;
+    n_inner += inner[i];
+    changed_inner += moved && inner[i];
+  }
+  ASSERT_GT(n_inner, 15000u);
+  EXPECT_GE(changed, 30u) << "the mips changed too few pixels: is the footprint read at all?";
+  EXPECT_LE(double(changed_inner), 0.001 * double(n_inner))
+      << changed_inner << " of " << n_inner << " pixels away from shadow edges changed";
+  std::printf("evsm_mips: %zu pixels changed, %zu of %zu away from edges; mean |dV| %s -> %s\n",
+              changed, changed_inner, n_inner, a.metrics.to_line().c_str(),
+              b.metrics.to_line().c_str());
 }
 
 // A hard point light over a few casters, every face of its cube in use.

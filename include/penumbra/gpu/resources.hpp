@@ -68,6 +68,11 @@ struct ImageDesc {
 };
 
 bool is_depth_format(VkFormat format);
+// The number of levels of a full mip chain down to 1x1 for a width x height image.
+uint32_t full_mip_count(uint32_t width, uint32_t height);
+class Context;
+// Whether Image::generate_mips works for optimal-tiling images of this format on ctx's device.
+bool mips_supported(Context& ctx, VkFormat format);
 bool has_stencil(VkFormat format);
 uint32_t format_texel_size(VkFormat format);    // bytes per texel of the main aspect
 VkImageAspectFlags aspect_of(VkFormat format);  // depth aspect for depth formats, else color
@@ -109,8 +114,13 @@ class Image {
   // Convenience: D32_SFLOAT depth (or R32_SFLOAT) from floats.
   void upload_floats(std::span<const float> values,
                      VkImageLayout final_layout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  // Reads back mip 0 of every layer (layer-major), leaving the image in its current layout.
-  std::vector<std::byte> download();
+  // Fills mips 1.. of every layer from mip 0 by repeated 2x linear blits (each level the box
+  // average of the one above; odd sizes round down) and leaves every level in final_layout.
+  // Needs the format's BLIT_SRC, BLIT_DST and linear-filter features (mips_supported).
+  void generate_mips(VkCommandBuffer cmd,
+                     VkImageLayout final_layout = VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+  // Reads back mip `level` of every layer (layer-major), leaving the image in its current layout.
+  std::vector<std::byte> download(uint32_t level = 0);
 
  private:
   void release();

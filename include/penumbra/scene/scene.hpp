@@ -193,6 +193,9 @@ struct ShadowSettings {
   int evsm_blur = 0;                  // box radius in texels, in [0, 8]
   float evsm_bleed_reduction = 0.2f;  // in [0, 1)
   float evsm_min_variance = 1e-6f;    // depth units squared, in [0, 0.01]
+  // The sun's moments get a full mip chain, and the resolve reads each receiver's screen
+  // footprint in the map through it (trilinear, textureGrad) instead of one bilinear read.
+  bool evsm_mips = false;
 };
 
 // The most contact-shadow march steps (what contact_shadows.comp can march).

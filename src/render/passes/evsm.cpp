@@ -43,11 +43,20 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
                             resolution_, layers_, usage);
   gpu::Image& out = sun ? r.sun_moments : spots ? r.spot_moments : r.point_moments;
   const bool cubes = source == MomentSource::points;
+  // shadows.evsm_mips: the sun's moments get a full chain, blitted down from level 0.
+  mips_ = sun && r.scene.shadows.evsm_mips;
+  if (mips_ && !gpu::mips_supported(r.ctx, format)) {
+    throw Error(std::string("shadows.evsm_mips = true needs linear blits of ") +
+                (fp16 ? "rg16f" : "rg32f") + " images, which " + r.ctx.info().name +
+                " does not have");
+  }
   out = r.make_image(name, cubes ? gpu::ImageKind::cube_array : gpu::ImageKind::image_2d_array,
-                     format, resolution_, resolution_, layers_, usage);
+                     format, resolution_, resolution_, layers_, usage,
+                     mips_ ? gpu::full_mip_count(resolution_, resolution_) : 1u);
   if (r.linear_clamp.handle() == VK_NULL_HANDLE) {  // shared by the sun's and the points' passes
     gpu::SamplerDesc linear;
     linear.filter = VK_FILTER_LINEAR;
+    linear.mip = VK_SAMPLER_MIPMAP_MODE_LINEAR;  // trilinear where the moments have mips
     r.linear_clamp = gpu::Sampler(r.ctx, linear);
   }
   // The spots' first pass also reads their planes (SpotBlock at 3); both passes share the layout.
@@ -81,11 +90,11 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
   gpu::DescriptorWriter()
       .buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(1, moments_x_.view(), r.nearest.handle())
-      .storage_image(2, cubes ? out.array_view() : out.view())
+      .storage_image(2, out.array_view())  // level 0 (the default view holds every mip)
       .update(r.ctx, set_[1]);
   r.report.passes.push_back(std::string(sun ? "evsm" : "evsm-" + kind) + ": moments " +
                             (fp16 ? "rg16f" : "rg32f") + ", " + std::to_string(layers_) +
-                            " layer(s), separable box blur");
+                            " layer(s), separable box blur" + (mips_ ? ", mips" : ""));
 }
 
 EvsmPass::~EvsmPass() = default;
@@ -112,7 +121,11 @@ void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) 
                             &set_[p], 0, nullptr);
     vkCmdPushConstants(cmd, layout_->handle(), kCompute, 0, sizeof(EvsmPush), &push);
     vkCmdDispatch(cmd, groups, groups, layers_);
-    out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    if (p == 1 && mips_) {
+      out[p]->generate_mips(cmd);
+    } else {
+      out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
+    }
   }
   const char* const marks[] = {"evsm", "evsm-point", "evsm-spot"};
   mark(marks[int(source_)]);

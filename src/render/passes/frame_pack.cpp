@@ -260,7 +260,8 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
       glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
                 std::max(1.0f, float(sh.pcf_radius) + 0.5f));
   frame.filter_world = glm::vec4(sh.constant_filter_width ? 1.0f : 0.0f,
-                                 float(std::clamp(sh.evsm_blur, 0, 8)), 0.0f, 0.0f);
+                                 float(std::clamp(sh.evsm_blur, 0, 8)),
+                                 sh.evsm_mips ? 1.0f : 0.0f, 0.0f);
   frame.pcss = glm::vec4(sh.pcss_confidence, sh.pcss_search_texels, sh.pcss_min_filter_texels,
                          sh.pcss_max_filter_texels);
   // evsm2 needs the moments; without them (a renderer built for another filter) the sun

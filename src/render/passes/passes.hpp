@@ -82,7 +82,8 @@ struct FrameResources {
 
   // A render target or shadow map, listed in the build report.
   gpu::Image make_image(const std::string& name, gpu::ImageKind kind, VkFormat format, uint32_t w,
-                        uint32_t h, uint32_t layers, VkImageUsageFlags usage);
+                        uint32_t h, uint32_t layers, VkImageUsageFlags usage,
+                        uint32_t mip_levels = 1);
   // A pipeline in the program registry: a shader edit rebuilds exactly the pipelines whose
   // sources (or their includes) read the edited file.
   void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
@@ -200,6 +201,7 @@ class EvsmPass final : public Pass {
   gpu::Image moments_x_;
   uint32_t resolution_ = 0, layers_ = 0;
   MomentSource source_ = MomentSource::sun;
+  bool mips_ = false;  // shadows.evsm_mips (the sun's moments only)
 };
 
 // The sun: cascade selection, biases and the filter, per pixel, into the shadow-info image.

@@ -17,6 +17,10 @@ std::string format_name(VkFormat f) {
       return "RGBA8";
     case VK_FORMAT_R32_SFLOAT:
       return "R32F";
+    case VK_FORMAT_R16G16_SFLOAT:
+      return "RG16F";
+    case VK_FORMAT_R32G32_SFLOAT:
+      return "RG32F";
     case VK_FORMAT_R32G32B32A32_SFLOAT:
       return "RGBA32F";
     default:
@@ -35,7 +39,7 @@ void viewport(VkCommandBuffer cmd, uint32_t w, uint32_t h) {
 
 gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind kind, VkFormat format,
                                       uint32_t w, uint32_t h, uint32_t layers,
-                                      VkImageUsageFlags usage) {
+                                      VkImageUsageFlags usage, uint32_t mip_levels) {
   gpu::ImageDesc d;
   d.kind = kind;
   d.format = format;
@@ -43,9 +47,11 @@ gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind ki
   d.height = h;
   d.layers = layers;
   d.usage = usage;
+  d.mip_levels = mip_levels;
   report.images.push_back(name + " " + std::to_string(w) + "x" + std::to_string(h) +
                           (layers > 1 ? "x" + std::to_string(layers) : "") + " " +
-                          format_name(format));
+                          format_name(format) +
+                          (mip_levels > 1 ? ", " + std::to_string(mip_levels) + " mips" : ""));
   return gpu::Image(ctx, d);
 }
 
