@@ -30,7 +30,7 @@ function(penumbra_add_test name)
   file(WRITE "${script}"
     "foreach(t IN LISTS ${name}_TESTS)\n"
     "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${T_LABELS}\"\n"
-    "    ENVIRONMENT \"MESA_SHADER_CACHE_DIR=${PENUMBRA_MESA_CACHE_DIR};PENUMBRA_VALIDATION=1\")\n"
+    "    ENVIRONMENT \"${PENUMBRA_TEST_ENVIRONMENT}\")\n"
     "endforeach()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
 endfunction()

@@ -274,7 +274,8 @@ void ContactShadowPass::create_pipelines() {
     resolve_spirv_ = given_resolve_spirv_;
     march_spirv_ = given_march_spirv_;
   } else {
-    shader::Compiler compiler(shader::CompileOptions{{shader_dir_}, {}, false});
+    shader::Compiler compiler(
+        shader::CompileOptions{{shader_dir_}, {}, false, shader::default_disk_cache_dir()});
     resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
     march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
   }

@@ -1,10 +1,15 @@
+#include <glslang/build_info.h>
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
 #include <glslang/SPIRV/GlslangToSpv.h>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cctype>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 #include <list>
 #include <map>
@@ -404,6 +409,104 @@ struct ShaderSetup {
   }
 };
 
+// ---------------------------------------------------------------------------------------------
+// The on-disk cache. One file per direct key, <dir>/<key, 16 hex digits>.spv:
+//   penumbra-spirv-cache 1\n
+//   key <the preprocessed key, hex>\n
+//   dep <hash of the contents, hex> <path>\n     one per file read, in first-read order
+//   spirv <word count>\n
+//   <the words, native byte order>
+
+constexpr std::string_view kDiskMagic = "penumbra-spirv-cache 1\n";
+
+std::string hex64(uint64_t v) {
+  char buf[17];
+  std::snprintf(buf, sizeof buf, "%016llx", static_cast<unsigned long long>(v));
+  return buf;
+}
+
+uint64_t content_hash(std::string_view text) {
+  Fnv1a h;
+  h.add_field(text);
+  return h.value();
+}
+
+struct DiskEntry {
+  uint64_t key = 0;
+  std::vector<fs::path> dependencies;
+  std::vector<uint32_t> spirv;
+};
+
+// The entry for direct_key when every file it lists still hashes the same; nothing otherwise
+// (missing, unreadable, malformed or stale entries alike).
+std::optional<DiskEntry> disk_lookup(const fs::path& dir, uint64_t direct_key) {
+  const std::optional<std::string> file = read_file(dir / (hex64(direct_key) + ".spv"));
+  if (!file || !file->starts_with(kDiskMagic)) return std::nullopt;
+  std::string_view rest = std::string_view(*file).substr(kDiskMagic.size());
+  auto line = [&rest]() -> std::optional<std::string_view> {
+    const size_t end = rest.find('\n');
+    if (end == std::string_view::npos) return std::nullopt;
+    std::string_view l = rest.substr(0, end);
+    rest.remove_prefix(end + 1);
+    return l;
+  };
+  DiskEntry entry;
+  const auto key_line = line();
+  if (!key_line || !key_line->starts_with("key ")) return std::nullopt;
+  entry.key = std::strtoull(std::string(key_line->substr(4)).c_str(), nullptr, 16);
+  for (;;) {
+    const auto l = line();
+    if (!l) return std::nullopt;
+    if (l->starts_with("spirv ")) {
+      const size_t words = std::strtoull(std::string(l->substr(6)).c_str(), nullptr, 10);
+      if (words == 0 || rest.size() != words * sizeof(uint32_t)) return std::nullopt;
+      entry.spirv.resize(words);
+      std::memcpy(entry.spirv.data(), rest.data(), rest.size());
+      return entry;
+    }
+    if (!l->starts_with("dep ") || l->size() < 4 + 16 + 2) return std::nullopt;
+    const uint64_t want = std::strtoull(std::string(l->substr(4, 16)).c_str(), nullptr, 16);
+    const fs::path path(std::string(l->substr(4 + 16 + 1)));
+    const std::optional<std::string> text = read_file(path);
+    if (!text || content_hash(*text) != want) return std::nullopt;
+    entry.dependencies.push_back(path);
+  }
+}
+
+// Writes the entry through a temporary file renamed into place; false when it could not.
+bool disk_store(const fs::path& dir, uint64_t direct_key, const DiskEntry& entry,
+                const std::vector<uint64_t>& dependency_hashes) {
+  std::string text(kDiskMagic);
+  text += "key " + hex64(entry.key) + "\n";
+  for (size_t i = 0; i < entry.dependencies.size(); ++i) {
+    const std::string path = entry.dependencies[i].string();
+    if (path.find('\n') != std::string::npos) return false;
+    text += "dep " + hex64(dependency_hashes[i]) + " " + path + "\n";
+  }
+  text += "spirv " + std::to_string(entry.spirv.size()) + "\n";
+  text.append(reinterpret_cast<const char*>(entry.spirv.data()),
+              entry.spirv.size() * sizeof(uint32_t));
+  std::error_code ec;
+  fs::create_directories(dir, ec);
+  static std::atomic<uint64_t> counter{0};
+  const fs::path final_path = dir / (hex64(direct_key) + ".spv");
+  const fs::path temp = dir / (hex64(direct_key) + ".tmp." + std::to_string(::getpid()) + "." +
+                               std::to_string(counter++));
+  {
+    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+    if (!out) return false;
+    out.write(text.data(), std::streamsize(text.size()));
+    out.close();
+    if (!out) {
+      fs::remove(temp, ec);
+      return false;
+    }
+  }
+  fs::rename(temp, final_path, ec);
+  if (ec) fs::remove(temp, ec);
+  return !ec;
+}
+
 constexpr int kDefaultVersion = 460;
 constexpr EShMessages kMessages = static_cast<EShMessages>(EShMsgSpvRules | EShMsgVulkanRules);
 
@@ -444,9 +547,9 @@ std::string format_diagnostic(const CompileError::Diagnostic& diagnostic) {
   return out;
 }
 
-Compiler::Compiler(CompileOptions options) : options_(std::move(options)) {
-  init_glslang();
-}
+// glslang starts on the first compile that misses both caches (its symbol tables cost 150 ms
+// or more), not here.
+Compiler::Compiler(CompileOptions options) : options_(std::move(options)) {}
 
 void Compiler::clear_cache() {
   cache_.clear();
@@ -474,7 +577,6 @@ CompiledShader Compiler::compile_source(std::string_view source, std::string_vie
 CompiledShader Compiler::compile(const std::string& main_text, const std::string& main_name,
                                  const std::optional<fs::path>& main_path, Stage stage,
                                  const std::vector<Define>& extra_defines) {
-  init_glslang();
   const EShLanguage language = to_glslang(stage);
 
   SourceSet sources;
@@ -523,6 +625,40 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   }
   std::string preamble;
   for (const std::string& line : sources.preamble_lines) preamble += line + "\n";
+
+  // The on-disk cache first: its key is everything read before the first include.
+  uint64_t direct_key = 0;
+  const bool disk = !options_.disk_cache_dir.empty();
+  if (disk) {
+    Fnv1a direct;
+    direct.add_field("penumbra-shader-direct-v1 vulkan1.2 spv1.5 glslang " +
+                     std::to_string(GLSLANG_VERSION_MAJOR) + "." +
+                     std::to_string(GLSLANG_VERSION_MINOR) + "." +
+                     std::to_string(GLSLANG_VERSION_PATCH) + GLSLANG_VERSION_FLAVOR);
+    direct.add_field(to_string(stage));
+    direct.add_field(options_.optimize ? "opt" : "noopt");
+    direct.add_field(define_text);
+    direct.add_field(main_name);
+    direct.add_field(main_path ? main_path->string() : std::string());
+    for (const fs::path& dir : include_dirs) direct.add_field(dir.string());
+    direct.add_field(main_text);
+    direct_key = direct.value();
+    if (std::optional<DiskEntry> entry = disk_lookup(options_.disk_cache_dir, direct_key)) {
+      ++stats_.cache_hits;
+      ++stats_.disk_hits;
+      CompiledShader result;
+      result.stage = stage;
+      result.name = main_name;
+      result.dependencies = std::move(entry->dependencies);
+      result.key = entry->key;
+      result.spirv = std::move(entry->spirv);
+      result.from_cache = true;
+      result.from_disk = true;
+      cache_.emplace(result.key, result.spirv);
+      return result;
+    }
+  }
+  init_glslang();
 
   // Pass 1: preprocess (expands includes, reads every dependency) to get the cache key.
   std::string preprocessed;
@@ -583,7 +719,22 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   }
 
   cache_.emplace(result.key, result.spirv);
+  if (disk) {
+    std::vector<uint64_t> hashes;
+    for (const fs::path& dep : result.dependencies) {
+      const auto it = sources.contents.find(dep.string());
+      hashes.push_back(content_hash(it != sources.contents.end() ? it->second : main_text));
+    }
+    disk_store(options_.disk_cache_dir, direct_key,
+               DiskEntry{result.key, result.dependencies, result.spirv}, hashes);
+  }
   return result;
+}
+
+std::filesystem::path default_disk_cache_dir() {
+  const char* dir = std::getenv("PENUMBRA_SHADER_CACHE_DIR");
+  if (dir == nullptr || *dir == '\0' || std::string_view(dir) == "off") return {};
+  return dir;
 }
 
 std::filesystem::path default_shader_dir() {

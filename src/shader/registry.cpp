@@ -6,7 +6,7 @@ namespace penumbra::shader {
 namespace fs = std::filesystem;
 
 ProgramRegistry::ProgramRegistry(fs::path shader_dir)
-    : shader_dir_(std::move(shader_dir)), compiler_(CompileOptions{{shader_dir_}, {}, false}) {}
+    : shader_dir_(std::move(shader_dir)), compiler_(CompileOptions{{shader_dir_}, {}, false, default_disk_cache_dir()}) {}
 
 Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
                                 std::set<fs::path>* dependencies) {

@@ -392,6 +392,7 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   for (auto& d : default_shader_dirs()) co.include_dirs.push_back(d);
   co.include_dirs.push_back(file.parent_path());
   co.defines = options.defines;
+  co.disk_cache_dir = shader::default_disk_cache_dir();
   shader::Compiler compiler(co);
   const std::string wrapper_name = "penumbra-wrapper(" + function + ").comp";
   shader::CompiledShader compiled;

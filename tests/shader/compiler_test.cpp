@@ -416,6 +416,82 @@ TEST(ShaderCompiler, EditingAnIncludedFileChangesTheKey) {
   EXPECT_EQ(e.diagnostics()[0].line, 4);
 }
 
+// The on-disk cache: a fresh Compiler (a later process) answers from disk with the SPIR-V, key
+// and dependencies of the compile that wrote the entry, and compiles nothing; an edited include,
+// a deleted include, other defines and a damaged entry all miss, and a cache directory that
+// cannot be written costs nothing but the cache.
+TEST(ShaderCompiler, DiskCacheAnswersALaterProcessUntilAFileItReadChanges) {
+  TempDir dir;
+  fs::copy(data_dir() / "diamond.comp", dir.path() / "diamond.comp");
+  fs::create_directories(dir.path() / "inc");
+  for (const char* name : {"left.glsl", "right.glsl", "common.glsl"}) {
+    fs::copy(data_dir() / "inc" / name, dir.path() / "inc" / name);
+  }
+  const fs::path shader = dir.path() / "diamond.comp";
+  CompileOptions options;
+  options.disk_cache_dir = dir.path() / "cache";
+  auto fresh = [&] { return Compiler(options); };
+
+  Compiler writer = fresh();
+  const CompiledShader first = writer.compile_file(shader);
+  EXPECT_FALSE(first.from_cache);
+  EXPECT_FALSE(first.from_disk);
+  Compiler reader = fresh();
+  const CompiledShader again = reader.compile_file(shader);
+  EXPECT_TRUE(again.from_disk);
+  EXPECT_TRUE(again.from_cache);
+  EXPECT_EQ(again.spirv, first.spirv);
+  EXPECT_EQ(again.key, first.key);
+  EXPECT_EQ(again.dependencies, first.dependencies);
+  EXPECT_EQ(reader.stats().compiles, 0u);
+  EXPECT_EQ(reader.stats().disk_hits, 1u);
+  // Other defines are another entry.
+  EXPECT_FALSE(fresh().compile_file(shader, {}, {{"EXTRA", "1"}}).from_disk);
+
+  // An edited include misses, and the entry it writes answers the next process.
+  write_file(dir.path() / "inc/common.glsl",
+             "#ifndef COMMON_GLSL\n#define COMMON_GLSL\nfloat common_value() { return 0.75; }\n"
+             "#endif\n");
+  Compiler after_edit = fresh();
+  const CompiledShader edited = after_edit.compile_file(shader);
+  EXPECT_FALSE(edited.from_disk);
+  EXPECT_NE(edited.spirv, first.spirv);
+  EXPECT_EQ(after_edit.stats().compiles, 1u);
+  const CompiledShader edited_again = fresh().compile_file(shader);
+  EXPECT_TRUE(edited_again.from_disk);
+  EXPECT_EQ(edited_again.spirv, edited.spirv);
+
+  // A damaged entry (cut short) misses and is rewritten.
+  std::vector<fs::path> entries;
+  for (const auto& e : fs::directory_iterator(dir.path() / "cache")) entries.push_back(e.path());
+  for (const fs::path& e : entries) {
+    EXPECT_EQ(e.extension(), ".spv") << e;  // no temporary file left behind
+    fs::resize_file(e, fs::file_size(e) - 3);
+  }
+  const CompiledShader repaired = fresh().compile_file(shader);
+  EXPECT_FALSE(repaired.from_disk);
+  EXPECT_EQ(repaired.spirv, edited.spirv);
+  EXPECT_TRUE(fresh().compile_file(shader).from_disk);
+
+  // A deleted include is a compile error naming it, never a stale answer.
+  fs::remove(dir.path() / "inc/right.glsl");
+  const CompileError error = expect_compile_error([&] { fresh().compile_file(shader); });
+  EXPECT_THAT(error.what(), HasSubstr("right.glsl"));
+
+  // A cache directory that is a file: every compile works, none is cached.
+  write_file(dir.path() / "blocked", "not a directory");
+  CompileOptions blocked;
+  blocked.disk_cache_dir = dir.path() / "blocked";
+  const CompiledShader plain = Compiler(blocked).compile_source(
+      "#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n", "plain.comp",
+      Stage::compute);
+  EXPECT_FALSE(plain.spirv.empty());
+  EXPECT_FALSE(Compiler(blocked)
+                   .compile_source("#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n",
+                                   "plain.comp", Stage::compute)
+                   .from_disk);
+}
+
 TEST(ShaderCompiler, StageIsPartOfTheKey) {
   Compiler compiler;
   const std::string source = "#version 460\nvoid main() {}\n";

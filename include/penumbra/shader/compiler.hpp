@@ -2,7 +2,8 @@
 
 // GLSL -> SPIR-V compilation with glslang: #include resolution (GL_GOOGLE_include_directive is
 // enabled automatically), injected defines, real file:line diagnostics (also inside included
-// files) and an in-memory SPIR-V cache keyed on the preprocessed source.
+// files), an in-memory SPIR-V cache keyed on the preprocessed source and an optional on-disk
+// cache that answers a later process without starting glslang at all.
 
 #include <cstdint>
 #include <filesystem>
@@ -39,6 +40,15 @@ struct CompileOptions {
   std::vector<Define> defines;
   // Runs glslang's SPIR-V optimizer (when glslang was built with it). Off by default.
   bool optimize = false;
+  // The on-disk SPIR-V cache's directory; empty: none (the default). An entry is keyed by
+  // everything glslang would read before it reads an include (the main text and name, the
+  // defines, the include directories, the stage and options, the glslang and format versions)
+  // and lists every file the compile read with a hash of its contents: it answers only while
+  // each of them still reads the same. A hit starts no glslang. Entries are written atomically
+  // (a temporary file renamed into place); a directory that cannot be written only costs the
+  // compile. Not seen: a new file that would shadow an include earlier on the search path.
+  // default_disk_cache_dir() gives the directory the layers above use.
+  std::filesystem::path disk_cache_dir;
 };
 
 struct CompiledShader {
@@ -52,7 +62,8 @@ struct CompiledShader {
   // Cache key: 64-bit FNV-1a of the preprocessed source (all includes expanded), the defines,
   // the stage and the options that change the output.
   uint64_t key = 0;
-  bool from_cache = false;
+  bool from_cache = false;  // answered from the in-memory or the on-disk cache
+  bool from_disk = false;   // answered from the on-disk cache (no glslang in this call)
 };
 
 // A failed compilation. what() is "file:line: error: message" for the first (real) error,
@@ -96,7 +107,8 @@ class Compiler {
 
   struct Stats {
     uint64_t compiles = 0;    // full glslang compilations (cache misses), failed ones included
-    uint64_t cache_hits = 0;  // requests answered from the cache
+    uint64_t cache_hits = 0;  // requests answered from the cache (memory or disk)
+    uint64_t disk_hits = 0;   // of those, answered from the on-disk cache
   };
   Stats stats() const { return stats_; }
 
@@ -117,5 +129,10 @@ class Compiler {
 // built from, or $PENUMBRA_SHADER_DIR when that is set and not empty: the one definition every
 // layer's default comes from.
 std::filesystem::path default_shader_dir();
+
+// The on-disk SPIR-V cache the renderer, the program registry and the test harness use:
+// $PENUMBRA_SHADER_CACHE_DIR when set ("off" or empty: none), else none. Penumbra's own CTest
+// runs and penumbra_add_shader_tests() set it to a directory in the build tree.
+std::filesystem::path default_disk_cache_dir();
 
 }  // namespace penumbra::shader
