@@ -14,7 +14,11 @@ function(penumbra_target_defaults target)
   endif()
 endfunction()
 
+include(${CMAKE_CURRENT_LIST_DIR}/PenumbraTesting.cmake)
+
 # penumbra_add_test(<name> LABELS <labels...> SOURCES <files...> LIBS <targets...>)
+# One CTest test per GoogleTest suite ("<name>:<Suite>"); PENUMBRA_CTEST_PER_TEST=ON gives one per
+# test (slower: every test process starts the driver and the validation layer).
 function(penumbra_add_test name)
   cmake_parse_arguments(T "" "" "LABELS;SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
@@ -23,6 +27,11 @@ function(penumbra_add_test name)
   target_compile_definitions(${name} PRIVATE
     PENUMBRA_SHADER_DIR="${PENUMBRA_SHADER_DIR}"
     PENUMBRA_TEST_DATA_DIR="${CMAKE_SOURCE_DIR}/tests/data")
+  if(NOT PENUMBRA_CTEST_PER_TEST)
+    penumbra_discover_suites(${name} PREFIX "${name}:" LABELS ${T_LABELS}
+                             ENVIRONMENT ${PENUMBRA_TEST_ENVIRONMENT} FAIL_ON_SKIP)
+    return()
+  endif()
   gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
   # gtest_discover_tests(PROPERTIES ...) flattens list values (two labels, two environment
   # variables), so the properties are applied by a script that runs after discovery.
