@@ -14,4 +14,19 @@ ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} \
   ctest --test-dir "$PENUMBRA_BUILD" --output-on-failure -j2 -L cpu "$@" || status=1
 ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
   ctest --test-dir "$PENUMBRA_BUILD" --output-on-failure -j2 -LE cpu "$@" || status=1
+# The package as a user gets it: install into a fresh prefix, then configure, build and run the
+# example project (examples/shader-tests, the tutorial) against it, outside this tree.
+example=$(mktemp -d)
+trap 'rm -rf "$example"' EXIT
+if cmake --install "$PENUMBRA_BUILD" --prefix "$example/prefix" > "$example/install.log" &&
+   cmake -S examples/shader-tests -B "$example/build" -G Ninja \
+     -DCMAKE_PREFIX_PATH="$example/prefix" > "$example/configure.log" &&
+   cmake --build "$example/build" > "$example/build.log"; then
+  ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
+    ctest --test-dir "$example/build" --output-on-failure || status=1
+else
+  cat "$example"/*.log
+  echo "the example project did not build against the installed package" >&2
+  status=1
+fi
 exit $status

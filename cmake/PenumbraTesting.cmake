@@ -34,3 +34,57 @@ function(penumbra_discover_suites target)
     "endif()\n")
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${include_file}")
 endfunction()
+
+# penumbra_add_shader_tests(<name> SOURCES <files>... [SHADER_DIRS <dirs>...] [LABELS <l>...]
+#                           [LIBS <targets>...] [TIMEOUT <s>] [PER_TEST])
+# Builds a GoogleTest executable of shader-function tests linked with Penumbra::testing_main and
+# registers it with CTest, one test per suite (PER_TEST: one per test). Every test runs with the
+# Khronos validation layer on (PENUMBRA_VALIDATION=1), finds the GLSL in SHADER_DIRS (relative
+# to the current source directory; searched before Penumbra's own shader library) and keeps
+# its SPIR-V and Mesa caches in <build>/penumbra-cache, so that a warm run starts no glslang.
+function(penumbra_add_shader_tests name)
+  cmake_parse_arguments(T "PER_TEST" "TIMEOUT" "SOURCES;SHADER_DIRS;LABELS;LIBS" ${ARGN})
+  if(NOT T_SOURCES)
+    message(FATAL_ERROR "penumbra_add_shader_tests(${name}): SOURCES is empty")
+  endif()
+  add_executable(${name} ${T_SOURCES})
+  target_link_libraries(${name} PRIVATE Penumbra::testing_main ${T_LIBS})
+  set(dirs "")
+  foreach(dir IN LISTS T_SHADER_DIRS)
+    get_filename_component(dir "${dir}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_SOURCE_DIR}")
+    if(NOT IS_DIRECTORY "${dir}")
+      message(FATAL_ERROR "penumbra_add_shader_tests(${name}): SHADER_DIRS: '${dir}' is not a "
+                          "directory")
+    endif()
+    list(APPEND dirs "${dir}")
+  endforeach()
+  string(JOIN ":" path ${dirs})
+  set(env "PENUMBRA_VALIDATION=1"
+          "PENUMBRA_SHADER_CACHE_DIR=${CMAKE_BINARY_DIR}/penumbra-cache/spirv"
+          "MESA_SHADER_CACHE_DIR=${CMAKE_BINARY_DIR}/penumbra-cache/mesa")
+  if(path)
+    list(APPEND env "PENUMBRA_SHADER_PATH=${path}")
+  endif()
+  if(PENUMBRA_PACKAGE_SHADER_DIR)  # set by PenumbraConfig.cmake: the package's own copy
+    list(APPEND env "PENUMBRA_SHADER_DIR=${PENUMBRA_PACKAGE_SHADER_DIR}")
+  endif()
+  if(NOT T_PER_TEST)
+    penumbra_discover_suites(${name} PREFIX "${name}:" LABELS ${T_LABELS} ENVIRONMENT ${env}
+                             TIMEOUT "${T_TIMEOUT}")
+    return()
+  endif()
+  include(GoogleTest)
+  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
+  # gtest_discover_tests(PROPERTIES ...) flattens list values: applied after discovery instead.
+  set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
+  set(timeout "")
+  if(T_TIMEOUT)
+    set(timeout " TIMEOUT ${T_TIMEOUT}")
+  endif()
+  file(WRITE "${script}"
+    "foreach(t IN LISTS ${name}_TESTS)\n"
+    "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${T_LABELS}\"\n"
+    "    ENVIRONMENT \"${env}\"${timeout})\n"
+    "endforeach()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
+endfunction()

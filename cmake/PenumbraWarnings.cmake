@@ -10,7 +10,9 @@ function(penumbra_target_defaults target)
   if(PENUMBRA_SANITIZE)
     target_compile_options(${target} PRIVATE -fsanitize=address,undefined -fno-omit-frame-pointer
                                              -fno-sanitize-recover=undefined)
-    target_link_options(${target} PRIVATE -fsanitize=address,undefined)
+    # INTERFACE too: whatever links a sanitized static library needs the runtimes (an installed
+    # sanitized build, as CI's example project links it).
+    target_link_options(${target} PUBLIC -fsanitize=address,undefined)
   endif()
 endfunction()
 

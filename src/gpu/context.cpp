@@ -184,16 +184,9 @@ std::string api_version_string(uint32_t v) {
          "." + std::to_string(VK_API_VERSION_PATCH(v));
 }
 
-void configure_mesa_cache() {
-#ifdef PENUMBRA_DEFAULT_MESA_CACHE_DIR
-  if (std::getenv("MESA_SHADER_CACHE_DIR") == nullptr) {
-    setenv("MESA_SHADER_CACHE_DIR", PENUMBRA_DEFAULT_MESA_CACHE_DIR, 0);
-  }
-#endif
-}
-
+// Mesa's shader cache is where MESA_SHADER_CACHE_DIR says (CTest points it into the build tree)
+// or Mesa's own default: the library sets nothing of its own.
 Context::Context(const ContextOptions& options) {
-  configure_mesa_cache();
   validation_ = options.validation.value_or(env_or("PENUMBRA_VALIDATION", "0") == "1");
 
   uint32_t loader_version = VK_API_VERSION_1_0;

@@ -737,12 +737,4 @@ std::filesystem::path default_disk_cache_dir() {
   return dir;
 }
 
-std::filesystem::path default_shader_dir() {
-  // PENUMBRA_SHADER_DIR in the environment points every tool at another shader tree (a snapshot
-  // to measure against while the repository's tree is being edited, or an installed copy).
-  if (const char* dir = std::getenv("PENUMBRA_SHADER_DIR"); dir != nullptr && *dir != '\0')
-    return dir;
-  return PENUMBRA_SHADER_DIR;
-}
-
 }  // namespace penumbra::shader

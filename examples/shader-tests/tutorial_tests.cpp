@@ -1,5 +1,6 @@
-// The complete example of docs/testing-shaders.md. It is built and run with every test run, so
-// the tutorial cannot drift from the harness.
+// The complete example of docs/testing-shaders.md, as a project outside Penumbra writes it. It is
+// built and run with every test run (in Penumbra's tree, and in CI against an installed package),
+// so the tutorial cannot drift from the harness.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -22,21 +23,16 @@ namespace {
 
 using namespace penumbra::testing;
 
-// 2. Where the GLSL lives. Your own project would pass its shader directory here (or set
-//    PENUMBRA_SHADER_PATH).
-FunctionOptions tutorial_options() {
-  FunctionOptions o;
-  o.include_dirs = {PENUMBRA_TUTORIAL_DIR};
-  return o;
-}
+// 2. Where the GLSL lives: penumbra_add_shader_tests(... SHADER_DIRS glsl) in CMakeLists.txt puts
+//    glsl/ on the search path of every test it registers (PENUMBRA_SHADER_PATH), before
+//    Penumbra's own library. FunctionOptions::include_dirs adds directories in code.
 
 // 3. Derive from GpuTest: any Vulkan validation message fails the test.
 class TutorialTest : public GpuTest {};
 
 // 4. A property test: 10 000 seeded random cases in one dispatch against a C++ reference.
 TEST_F(TutorialTest, WrappedLambertMatchesReference) {
-  ShaderFunction<float(glm::vec3, glm::vec3, float)> lambert("my_shading.glsl", "wrapped_lambert",
-                                                             tutorial_options());
+  ShaderFunction<float(glm::vec3, glm::vec3, float)> lambert("my_shading.glsl", "wrapped_lambert");
   auto reference = [](glm::vec3 n, glm::vec3 l, float wrap) {
     const double d = double(n.x) * l.x + double(n.y) * l.y + double(n.z) * l.z;
     return float(std::max((d + wrap) / (1.0 + wrap), 0.0));
@@ -51,8 +47,7 @@ TEST_F(TutorialTest, WrappedLambertMatchesReference) {
 
 // 5. Structs in, out-parameters back.
 TEST_F(TutorialTest, SpotConeReturnsAttenuationAndVector) {
-  ShaderFunction<float(SpotLight, glm::vec3, Out<glm::vec3>)> cone("my_shading.glsl", "spot_cone",
-                                                                   tutorial_options());
+  ShaderFunction<float(SpotLight, glm::vec3, Out<glm::vec3>)> cone("my_shading.glsl", "spot_cone");
   const SpotLight light{glm::vec3(0, 10, 0), std::cos(0.5f), glm::vec3(0, -1, 0), std::cos(0.3f)};
   const auto [on_axis, to_light] = cone(light, glm::vec3(0, 0, 0));
   EXPECT_EQ(on_axis, 1.0f);
@@ -70,8 +65,7 @@ TEST_F(TutorialTest, ShadowTapAgainstCompareThenFilter) {
   desc.height = 2;
   desc.sampler.filter = VK_FILTER_LINEAR;
   desc.sampler.compare_op = VK_COMPARE_OP_LESS_OR_EQUAL;  // lit when receiver <= stored
-  ShaderFunction<float(Sampler2DShadow, glm::vec2, float)> tap("my_shading.glsl", "shadow_tap",
-                                                               tutorial_options());
+  ShaderFunction<float(Sampler2DShadow, glm::vec2, float)> tap("my_shading.glsl", "shadow_tap");
   tap.bind(0, make_depth_texture(desc, depth));
   // At u = 0.5 the bilinear footprint is half on each column: receiver 0.5 is lit only by the
   // right column (0.8), so the filtered result is 0.5 — up to the weight quantisation the

@@ -1,4 +1,4 @@
-// tests/tutorial/my_shading.glsl — the GLSL library of the tutorial in docs/testing-shaders.md.
+// examples/shader-tests/glsl/my_shading.glsl — the GLSL library of the tutorial in docs/testing-shaders.md.
 #ifndef MY_SHADING_GLSL
 #define MY_SHADING_GLSL
 

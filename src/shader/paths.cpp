@@ -1,0 +1,18 @@
+// default_shader_dir(), alone in its file: it is compiled twice, with the source tree's shaders/
+// for the build tree's targets (penumbra_shader_paths) and with the installed
+// share/penumbra/shaders for the installed package (penumbra_shader_paths_installed), so that an
+// installed Penumbra never reads the tree it was built from.
+#include <cstdlib>
+#include <penumbra/shader/compiler.hpp>
+
+namespace penumbra::shader {
+
+std::filesystem::path default_shader_dir() {
+  // PENUMBRA_SHADER_DIR in the environment points every tool at another shader tree (a snapshot
+  // to measure against while the repository's tree is being edited, or a relocated install).
+  if (const char* dir = std::getenv("PENUMBRA_SHADER_DIR"); dir != nullptr && *dir != '\0')
+    return dir;
+  return PENUMBRA_SHADER_DIR;
+}
+
+}  // namespace penumbra::shader
