@@ -74,7 +74,7 @@ function(penumbra_add_shader_tests name)
     return()
   endif()
   include(GoogleTest)
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
+  gtest_discover_tests(${name} TEST_PREFIX "${name}:" DISCOVERY_TIMEOUT 60)
   # gtest_discover_tests(PROPERTIES ...) flattens list values: applied after discovery instead.
   set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
   set(timeout "")

@@ -34,7 +34,7 @@ function(penumbra_add_test name)
                              ENVIRONMENT ${PENUMBRA_TEST_ENVIRONMENT} FAIL_ON_SKIP)
     return()
   endif()
-  gtest_discover_tests(${name} DISCOVERY_TIMEOUT 60)
+  gtest_discover_tests(${name} TEST_PREFIX "${name}:" DISCOVERY_TIMEOUT 60)
   # gtest_discover_tests(PROPERTIES ...) flattens list values (two labels, two environment
   # variables), so the properties are applied by a script that runs after discovery.
   set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")

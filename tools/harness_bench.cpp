@@ -8,10 +8,13 @@
 // unique); warm numbers from a second process-level engine for the same wrapper text after the
 // first was dropped... which the harness never does, so "warm" is measured with a fresh process
 // run: start the bench twice, the second run's "first use" hits Mesa's disk cache.
+#include <stdlib.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/gpu_test.hpp>
@@ -38,8 +41,21 @@ float bench_small(float a, vec2 b) { return a * b.x + b.y * BENCH_SALT; }
 
 int run(int reps, bool fixed_salt) {
   penumbra::gpu::Context& ctx = penumbra::testing::shared_context();
-  const std::string dir = "/tmp/penumbra-harness-bench";
-  std::system(("mkdir -p " + dir).c_str());
+  // The bench's GLSL goes into a fresh directory of its own, removed at exit.
+  char tmpl[] = "/tmp/penumbra-harness-bench.XXXXXX";
+  const char* made = ::mkdtemp(tmpl);
+  if (made == nullptr) {
+    std::fprintf(stderr, "penumbra-harness-bench: cannot create a temporary directory\n");
+    return 1;
+  }
+  const std::string dir = made;
+  struct Cleanup {
+    std::string dir;
+    ~Cleanup() {
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  } cleanup{dir};
   std::ofstream(dir + "/bench.glsl") << kLibrary;
   std::printf("device: %s (%s), validation %s, Mesa cache %s\n", ctx.info().name.c_str(),
               ctx.info().driver_name.c_str(), ctx.validation_enabled() ? "on" : "off",

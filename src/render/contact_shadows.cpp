@@ -274,8 +274,10 @@ void ContactShadowPass::create_pipelines() {
     resolve_spirv_ = given_resolve_spirv_;
     march_spirv_ = given_march_spirv_;
   } else {
-    shader::Compiler compiler(
-        shader::CompileOptions{{shader_dir_}, {}, false, shader::default_disk_cache_dir()});
+    shader::CompileOptions options;
+    options.include_dirs = {shader_dir_};
+    options.disk_cache_dir = shader::default_disk_cache_dir();
+    shader::Compiler compiler(options);
     resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
     march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
   }

@@ -13,6 +13,7 @@
 #include <fstream>
 #include <list>
 #include <map>
+#include <set>
 #include <memory>
 #include <mutex>
 #include <penumbra/shader/compiler.hpp>
@@ -112,10 +113,12 @@ struct SourceSet {
   std::optional<fs::path> main_path;            // empty for compile_source
   std::map<std::string, fs::path> real;         // glslang name -> real path (or virtual name)
   std::map<std::string, std::string> contents;  // canonical path string -> file text
+  std::map<std::string, std::string> served;    // the same, as glslang reads it
   std::vector<fs::path> dependencies;           // first-read order, unique
   std::vector<fs::path> display_roots;          // for short names in messages
   std::list<std::string> messages;              // messages returned to glslang (stable storage)
   std::vector<std::string> preamble_lines;      // for errors glslang reports in the preamble
+  std::vector<std::string> notes;               // what was changed in included files
 
   // Shortest sensible name for a message: relative to the main directory or an include
   // directory when below it, else the full path.
@@ -132,10 +135,56 @@ struct SourceSet {
   }
 };
 
+// A leading `#version` line of an included file (after blank lines and comments), blanked in
+// place so that every later line keeps its number; the directive, or nothing when there is none.
+std::optional<std::string> blank_leading_version(std::string& text) {
+  size_t pos = 0;
+  bool in_block = false;
+  while (pos < text.size()) {
+    const size_t end = std::min(text.find('\n', pos), text.size());
+    std::string_view line(text.data() + pos, end - pos);
+    size_t i = 0;
+    while (i < line.size()) {
+      if (in_block) {
+        const size_t close = line.find("*/", i);
+        if (close == std::string_view::npos) {
+          i = line.size();
+          break;
+        }
+        in_block = false;
+        i = close + 2;
+      } else if (line[i] == ' ' || line[i] == '\t' || line[i] == '\r') {
+        ++i;
+      } else if (line.substr(i).starts_with("//")) {
+        i = line.size();
+      } else if (line.substr(i).starts_with("/*")) {
+        in_block = true;
+        i += 2;
+      } else {
+        break;
+      }
+    }
+    if (i < line.size()) {
+      std::string_view rest = line.substr(i);
+      if (!rest.starts_with("#")) return std::nullopt;
+      rest.remove_prefix(1);
+      while (!rest.empty() && (rest[0] == ' ' || rest[0] == '\t')) rest.remove_prefix(1);
+      if (!rest.starts_with("version")) return std::nullopt;
+      std::string directive(line.substr(i));
+      while (!directive.empty() && directive.back() == '\r') directive.pop_back();
+      std::fill(text.begin() + std::ptrdiff_t(pos + i), text.begin() + std::ptrdiff_t(end), ' ');
+      return directive;
+    }
+    pos = end + 1;
+  }
+  return std::nullopt;
+}
+
 class Includer final : public glslang::TShader::Includer {
  public:
-  Includer(SourceSet& sources, const std::vector<fs::path>& include_dirs)
-      : sources_(sources), include_dirs_(include_dirs) {}
+  Includer(SourceSet& sources, const std::vector<fs::path>& include_dirs,
+           const CompileOptions& options)
+      : sources_(sources), include_dirs_(include_dirs), options_(options) {}
 
   IncludeResult* includeLocal(const char* header_name, const char* includer_name,
                               size_t depth) override {
@@ -218,12 +267,26 @@ class Includer final : public glslang::TShader::Includer {
       if (content == sources_.contents.end()) {
         std::optional<std::string> text = read_file(path);
         if (!text) return error_result("cannot read include \"" + header + "\" (" + name + ")");
-        content = sources_.contents.emplace(name, std::move(*text)).first;
+        // The contents map keeps what the file holds (the disk cache hashes it); the text
+        // glslang reads may have its #version blanked.
+        content = sources_.contents.emplace(name, *text).first;
         sources_.dependencies.push_back(path);
+        if (options_.strip_include_version) {
+          if (std::optional<std::string> directive = blank_leading_version(*text)) {
+            sources_.notes.push_back(sources_.display(name) + ": dropped '" + *directive +
+                                     "' (an included file; CompileOptions::"
+                                     "strip_include_version)");
+          }
+        }
+        sources_.served.emplace(name, std::move(*text));
       }
       sources_.real.emplace(name, path);
       stack_.push_back(name);
-      return new IncludeResult(name, content->second.data(), content->second.size(), nullptr);
+      if (options_.include_once && !served_.insert(name).second) {
+        return new IncludeResult(name, "", 0, nullptr);  // already included: nothing again
+      }
+      const std::string& served = sources_.served.at(name);
+      return new IncludeResult(name, served.data(), served.size(), nullptr);
     }
 
     std::string message = "cannot find include \"" + header + "\" (searched: ";
@@ -238,8 +301,10 @@ class Includer final : public glslang::TShader::Includer {
 
   SourceSet& sources_;
   const std::vector<fs::path>& include_dirs_;
+  const CompileOptions& options_;
   std::vector<std::string> stack_;
   std::optional<Pending> pending_;
+  std::set<std::string> served_;  // include_once: files already given to this pass
 };
 
 // ---------------------------------------------------------------------------------------------
@@ -414,6 +479,7 @@ struct ShaderSetup {
 //   penumbra-spirv-cache 1\n
 //   key <the preprocessed key, hex>\n
 //   dep <hash of the contents, hex> <path>\n     one per file read, in first-read order
+//   note <text>\n                                 one per CompiledShader::notes line
 //   spirv <word count>\n
 //   <the words, native byte order>
 
@@ -435,6 +501,7 @@ struct DiskEntry {
   uint64_t key = 0;
   std::vector<fs::path> dependencies;
   std::vector<uint32_t> spirv;
+  std::vector<std::string> notes;
 };
 
 // The entry for direct_key when every file it lists still hashes the same; nothing otherwise
@@ -464,6 +531,10 @@ std::optional<DiskEntry> disk_lookup(const fs::path& dir, uint64_t direct_key) {
       std::memcpy(entry.spirv.data(), rest.data(), rest.size());
       return entry;
     }
+    if (l->starts_with("note ")) {
+      entry.notes.emplace_back(l->substr(5));
+      continue;
+    }
     if (!l->starts_with("dep ") || l->size() < 4 + 16 + 2) return std::nullopt;
     const uint64_t want = std::strtoull(std::string(l->substr(4, 16)).c_str(), nullptr, 16);
     const fs::path path(std::string(l->substr(4 + 16 + 1)));
@@ -482,6 +553,10 @@ bool disk_store(const fs::path& dir, uint64_t direct_key, const DiskEntry& entry
     const std::string path = entry.dependencies[i].string();
     if (path.find('\n') != std::string::npos) return false;
     text += "dep " + hex64(dependency_hashes[i]) + " " + path + "\n";
+  }
+  for (const std::string& note : entry.notes) {
+    if (note.find('\n') != std::string::npos) return false;
+    text += "note " + note + "\n";
   }
   text += "spirv " + std::to_string(entry.spirv.size()) + "\n";
   text.append(reinterpret_cast<const char*>(entry.spirv.data()),
@@ -637,6 +712,8 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
                      std::to_string(GLSLANG_VERSION_PATCH) + GLSLANG_VERSION_FLAVOR);
     direct.add_field(to_string(stage));
     direct.add_field(options_.optimize ? "opt" : "noopt");
+    direct.add_field(options_.strip_include_version ? "strip-version" : "keep-version");
+    direct.add_field(options_.include_once ? "once" : "every");
     direct.add_field(define_text);
     direct.add_field(main_name);
     direct.add_field(main_path ? main_path->string() : std::string());
@@ -652,6 +729,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
       result.dependencies = std::move(entry->dependencies);
       result.key = entry->key;
       result.spirv = std::move(entry->spirv);
+      result.notes = std::move(entry->notes);
       result.from_cache = true;
       result.from_disk = true;
       cache_.emplace(result.key, result.spirv);
@@ -664,7 +742,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   std::string preprocessed;
   {
     ShaderSetup setup(language, main_text, main_name, preamble);
-    Includer includer(sources, include_dirs);
+    Includer includer(sources, include_dirs, options_);
     if (!setup.shader.preprocess(GetDefaultResources(), kDefaultVersion, ENoProfile, false, false,
                                  kMessages, &preprocessed, includer)) {
       throw_compile_error(setup.shader.getInfoLog(), sources, "preprocessing");
@@ -675,6 +753,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   hash.add_field("penumbra-shader-v1 vulkan1.2 spv1.5");
   hash.add_field(to_string(stage));
   hash.add_field(options_.optimize ? "opt" : "noopt");
+  hash.add_field(options_.include_once ? "once" : "every");
   hash.add_field(define_text);
   hash.add_field(preprocessed);
 
@@ -682,6 +761,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   result.stage = stage;
   result.name = main_name;
   result.dependencies = sources.dependencies;
+  result.notes = sources.notes;
   result.key = hash.value();
 
   if (const auto it = cache_.find(result.key); it != cache_.end()) {
@@ -695,7 +775,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   // so that every diagnostic carries its own file and line.
   ++stats_.compiles;
   ShaderSetup setup(language, main_text, main_name, preamble);
-  Includer includer(sources, include_dirs);
+  Includer includer(sources, include_dirs, options_);
   if (!setup.shader.parse(GetDefaultResources(), kDefaultVersion, false, kMessages, includer)) {
     throw_compile_error(setup.shader.getInfoLog(), sources, "compilation");
   }
@@ -726,7 +806,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
       hashes.push_back(content_hash(it != sources.contents.end() ? it->second : main_text));
     }
     disk_store(options_.disk_cache_dir, direct_key,
-               DiskEntry{result.key, result.dependencies, result.spirv}, hashes);
+               DiskEntry{result.key, result.dependencies, result.spirv, result.notes}, hashes);
   }
   return result;
 }

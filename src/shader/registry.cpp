@@ -6,7 +6,12 @@ namespace penumbra::shader {
 namespace fs = std::filesystem;
 
 ProgramRegistry::ProgramRegistry(fs::path shader_dir)
-    : shader_dir_(std::move(shader_dir)), compiler_(CompileOptions{{shader_dir_}, {}, false, default_disk_cache_dir()}) {}
+    : shader_dir_(std::move(shader_dir)), compiler_([this] {
+        CompileOptions o;
+        o.include_dirs = {shader_dir_};
+        o.disk_cache_dir = default_disk_cache_dir();
+        return o;
+      }()) {}
 
 Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
                                 std::set<fs::path>* dependencies) {

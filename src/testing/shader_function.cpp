@@ -350,6 +350,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   for (const auto& s : options.spec_constants)
     key += "\n#spec " + std::to_string(s.id) + "=" + std::to_string(s.bits);
   for (const auto& d : options.include_dirs) key += "\n#dir " + d.string();
+  key += std::string("\n#strip-version ") + (options.strip_include_version ? "1" : "0");
+  key += std::string("\n#include-once ") + (options.include_once ? "1" : "0");
   // Two C++ descriptions of one GLSL struct give the same wrapper text but different host
   // layouts: each must be checked against reflection on its own.
   for (const auto& [n, t] : in_members) key += "\n#in " + n + " " + layout_signature(*t);
@@ -393,6 +395,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   co.include_dirs.push_back(file.parent_path());
   co.defines = options.defines;
   co.disk_cache_dir = shader::default_disk_cache_dir();
+  co.strip_include_version = options.strip_include_version;
+  co.include_once = options.include_once;
   shader::Compiler compiler(co);
   const std::string wrapper_name = "penumbra-wrapper(" + function + ").comp";
   shader::CompiledShader compiled;
@@ -410,6 +414,11 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
             err.what() + "\n--- generated wrapper ---\n" + numbered(e->source_),
         diags);
   }
+
+  // What the compiler changed in the sources (a dropped #version), once per wrapper.
+  for (const std::string& note : compiled.notes)
+    std::fprintf(stderr, "[penumbra] ShaderFunction %s: %s\n", e->signature_.c_str(), note.c_str());
+  e->notes_ = compiled.notes;
 
   // ---- check host layouts against reflection ----
   const auto refl = shader::reflect(compiled.spirv);

@@ -205,6 +205,49 @@ TEST_F(HarnessTest, CompileErrorInTestedFileNamesItsFileAndLine) {
   }
 }
 
+// GoogleTest cannot say where an exception came from ("unknown file"): a construction error
+// names the line that built the ShaderFunction, for every kind of error, and keeps its type.
+TEST_F(HarnessTest, ConstructionErrorsNameTheCallersLine) {
+  auto expect_at = [](const std::string& what, int line, const std::string& call) {
+    EXPECT_THAT(what, ::testing::StartsWith(std::string(__FILE__) + ":" + std::to_string(line) +
+                                            ": in ShaderFunction(" + call + "):\n"));
+  };
+  int line = 0;
+  try {
+    line = __LINE__ + 1;
+    ShaderFunction<float(float)> f("no_such_file.glsl", "f");
+    FAIL();
+  } catch (const Error& e) {
+    expect_at(e.what(), line, "\"no_such_file.glsl\", \"f\"");
+    EXPECT_THAT(e.what(), HasSubstr("not found"));
+  }
+  try {
+    line = __LINE__ + 1;
+    ShaderFunction<float(float)> f(PENUMBRA_TEST_DATA_DIR "/harness/broken.glsl", "broken");
+    FAIL();
+  } catch (const shader::CompileError& e) {  // still a CompileError, with its diagnostics
+    expect_at(e.what(), line,
+              "\"" + std::string(PENUMBRA_TEST_DATA_DIR "/harness/broken.glsl") + "\", \"broken\"");
+    ASSERT_FALSE(e.diagnostics().empty());
+    EXPECT_EQ(e.diagnostics()[0].line, 5);
+  }
+}
+
+// A tested file that begins with its own #version (third-party GLSL) compiles: the directive is
+// dropped and the engine says so; with strip_include_version off, glslang refuses it.
+TEST_F(HarnessTest, AFileWithItsOwnVersionIsTestedWithANote) {
+  ShaderFunction<float(float)> f(PENUMBRA_TEST_DATA_DIR "/harness/versioned.glsl",
+                                 "versioned_twice");
+  EXPECT_EQ(f(1.5f), 3.0f);
+  ASSERT_EQ(f.engine().notes().size(), 1u);
+  EXPECT_THAT(f.engine().notes()[0], HasSubstr("dropped '#version 330 core'"));
+  FunctionOptions keep;
+  keep.strip_include_version = false;
+  EXPECT_THROW((ShaderFunction<float(float)>(PENUMBRA_TEST_DATA_DIR "/harness/versioned.glsl",
+                                             "versioned_twice", keep)),
+               shader::CompileError);
+}
+
 TEST_F(HarnessTest, SignatureMismatchExplainsAndShowsTheWrapper) {
   try {
     ShaderFunction<float(glm::vec2)> f(kFuncs, "is_positive");

@@ -416,6 +416,59 @@ TEST(ShaderCompiler, EditingAnIncludedFileChangesTheKey) {
   EXPECT_EQ(e.diagnostics()[0].line, 4);
 }
 
+// Third-party GLSL often begins with its own #version, which glslang refuses after the main
+// file's: by default a leading #version of an included file (after comments) is blanked in
+// place, the lines below keep their numbers, and the notes say so; off, glslang's error stands.
+TEST(ShaderCompiler, ALeadingVersionOfAnIncludedFileIsDroppedAndNoted) {
+  TempDir dir;
+  write_file(dir.path() / "noise.glsl",
+             "// a noise library\n/* with a\n   block comment */\n#version 120\n"
+             "float noise_value() { return 0.5; }\n"
+             "float noise_broken() { return undefined_name; }\n");
+  const std::string main = "#version 460\n#include \"noise.glsl\"\n"
+                           "layout(local_size_x = 1) in;\nvoid main() {}\n";
+  write_file(dir.path() / "main.comp", main);
+  Compiler compiler({{dir.path()}});
+  // The error on line 6 is reported on line 6: the blanked directive kept its line.
+  const CompileError error =
+      expect_compile_error([&] { compiler.compile_file(dir.path() / "main.comp"); });
+  EXPECT_THAT(error.what(), HasSubstr("noise.glsl:6"));
+  EXPECT_THAT(error.what(), Not(HasSubstr("#version")));
+
+  write_file(dir.path() / "noise.glsl",
+             "// a noise library\n/* with a\n   block comment */\n#version 120\n"
+             "float noise_value() { return 0.5; }\n");
+  const CompiledShader ok = compiler.compile_file(dir.path() / "main.comp");
+  ASSERT_EQ(ok.notes.size(), 1u);
+  EXPECT_THAT(ok.notes[0], HasSubstr("noise.glsl: dropped '#version 120'"));
+
+  CompileOptions keep({dir.path()});
+  keep.strip_include_version = false;
+  const CompileError refused =
+      expect_compile_error([&] { Compiler(keep).compile_file(dir.path() / "main.comp"); });
+  EXPECT_THAT(refused.what(), HasSubstr("#version"));
+}
+
+// Files without include guards that share a helper: included twice it is a redefinition;
+// with include_once each file is read once per compile.
+TEST(ShaderCompiler, IncludeOnceLetsGuardFreeFilesShareAHelper) {
+  TempDir dir;
+  write_file(dir.path() / "helper.glsl", "float helper(float x) { return x * 2.0; }\n");
+  write_file(dir.path() / "a.glsl", "#include \"helper.glsl\"\nfloat a(float x) { return helper(x); }\n");
+  write_file(dir.path() / "b.glsl", "#include \"helper.glsl\"\nfloat b(float x) { return helper(x) + 1.0; }\n");
+  write_file(dir.path() / "main.comp",
+             "#version 460\n#include \"a.glsl\"\n#include \"b.glsl\"\n"
+             "layout(local_size_x = 1) in;\nvoid main() { float y = a(1.0) + b(2.0); }\n");
+  const CompileError twice = expect_compile_error(
+      [&] { Compiler({{dir.path()}}).compile_file(dir.path() / "main.comp"); });
+  EXPECT_THAT(twice.what(), HasSubstr("helper"));
+  CompileOptions once({dir.path()});
+  once.include_once = true;
+  const CompiledShader shader = Compiler(once).compile_file(dir.path() / "main.comp");
+  EXPECT_FALSE(shader.spirv.empty());
+  EXPECT_EQ(shader.dependencies.size(), 4u);
+}
+
 // The on-disk cache: a fresh Compiler (a later process) answers from disk with the SPIR-V, key
 // and dependencies of the compile that wrote the entry, and compiles nothing; an edited include,
 // a deleted include, other defines and a damaged entry all miss, and a cache directory that

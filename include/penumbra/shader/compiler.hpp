@@ -40,6 +40,14 @@ struct CompileOptions {
   std::vector<Define> defines;
   // Runs glslang's SPIR-V optimizer (when glslang was built with it). Off by default.
   bool optimize = false;
+  // A leading `#version` line of an included file (third-party GLSL often starts with one,
+  // which glslang rejects after the main file's) is blanked in place, line numbers kept, and
+  // CompiledShader::notes says so.
+  bool strip_include_version = true;
+  // Every file is included at most once per compile (as if each began with `#pragma once`):
+  // files without include guards that share helpers can be included together. Off: a file
+  // included twice is read twice, as GLSL has it.
+  bool include_once = false;
   // The on-disk SPIR-V cache's directory; empty: none (the default). An entry is keyed by
   // everything glslang would read before it reads an include (the main text and name, the
   // defines, the include directories, the stage and options, the glslang and format versions)
@@ -64,6 +72,9 @@ struct CompiledShader {
   uint64_t key = 0;
   bool from_cache = false;  // answered from the in-memory or the on-disk cache
   bool from_disk = false;   // answered from the on-disk cache (no glslang in this call)
+  // What the compiler changed in the sources it read ("cellular2D.glsl: dropped '#version
+  // 120' ..."), one line each.
+  std::vector<std::string> notes;
 };
 
 // A failed compilation. what() is "file:line: error: message" for the first (real) error,

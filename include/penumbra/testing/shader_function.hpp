@@ -17,9 +17,11 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
+#include <penumbra/core/error.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/testing/glsl_types.hpp>
+#include <source_location>
 #include <span>
 #include <string>
 #include <tuple>
@@ -129,12 +131,19 @@ SpecConstant spec_constant(uint32_t id, T value) {
 }
 
 struct FunctionOptions {
-  // Searched after the default shader directories (the repo's shaders/ and PENUMBRA_SHADER_PATH,
-  // a colon-separated list).
+  // Searched first, in order, for the tested file and its includes; then PENUMBRA_SHADER_PATH (a
+  // colon-separated list; penumbra_add_shader_tests sets it from SHADER_DIRS), then Penumbra's
+  // own shader library (shader::default_shader_dir()), then the tested file's own directory.
   std::vector<std::filesystem::path> include_dirs;
   std::vector<shader::Define> defines;
   std::vector<SpecConstant> spec_constants;
   std::string prelude;  // GLSL placed before the #include of the tested file
+  // shader::CompileOptions::strip_include_version: a tested or included file may begin with its
+  // own #version (third-party GLSL); it is dropped, and said so on stderr.
+  bool strip_include_version = true;
+  // shader::CompileOptions::include_once: files without include guards that share helpers can be
+  // tested together (each file is included once per wrapper).
+  bool include_once = false;
   uint32_t workgroup_size = 64;
 };
 
@@ -161,6 +170,8 @@ class FunctionEngine {
   const std::string& source() const { return source_; }
   const std::filesystem::path& file() const { return file_; }
   const std::string& signature() const { return signature_; }
+  // What the compiler changed in the sources it read (shader::CompiledShader::notes).
+  const std::vector<std::string>& notes() const { return notes_; }
   uint32_t input_stride() const { return input_stride_; }
   uint32_t output_stride() const { return output_stride_; }
   // std430 offsets and types of the input members (in/inout params, in order) and output
@@ -182,6 +193,7 @@ class FunctionEngine {
   FunctionEngine() = default;
   std::filesystem::path file_;
   std::string signature_;
+  std::vector<std::string> notes_;
   std::string source_;
   uint32_t input_stride_ = 0, output_stride_ = 0;
   std::vector<uint32_t> input_offsets_, output_offsets_;
@@ -257,12 +269,27 @@ class ShaderFunction<R(P...)> {
                               std::declval<typename detail::ParamTraits<P>::Result>()...));
   using Result = typename detail::Unwrap<ResultTuple>::type;
 
+  // A construction error (the file, a compile error, a signature that matches no overload, a
+  // layout mismatch) is thrown with the caller's file:line in front of its message, so that a
+  // test's report names the line that built the function (GoogleTest itself cannot locate an
+  // exception). Its type is kept: shader::CompileError, with its diagnostics, or Error.
   ShaderFunction(const std::filesystem::path& file, const std::string& function,
-                 FunctionOptions options = {}) {
+                 FunctionOptions options = {},
+                 std::source_location where = std::source_location::current()) {
     std::shared_ptr<const TypeDesc> ret;
     if constexpr (!std::is_void_v<R>) ret = glsl_type<R>();
-    engine_ =
-        FunctionEngine::get(file, function, ret, {detail::ParamTraits<P>::spec()...}, options);
+    const auto at = [&] {
+      return std::string(where.file_name()) + ":" + std::to_string(where.line()) +
+             ": in ShaderFunction(\"" + file.string() + "\", \"" + function + "\"):\n";
+    };
+    try {
+      engine_ =
+          FunctionEngine::get(file, function, ret, {detail::ParamTraits<P>::spec()...}, options);
+    } catch (const shader::CompileError& e) {
+      throw shader::CompileError(at() + e.what(), e.diagnostics());
+    } catch (const Error& e) {
+      throw Error(at() + e.what());
+    }
     resources_.resize(engine_->resource_count());
   }
 
