@@ -1,4 +1,6 @@
 #include <algorithm>
+#include <cmath>
+#include <glm/gtc/packing.hpp>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -30,6 +32,8 @@ const char* glsl_name(ResourceKind kind) {
       return "samplerCubeArrayShadow";
     case ResourceKind::sampler_cube_array:
       return "samplerCubeArray";
+    case ResourceKind::sampler_cube:
+      return "samplerCube";
   }
   return "?";
 }
@@ -204,6 +208,8 @@ bool kind_matches(ResourceKind kind, const Texture& t) {
       return t.depth && compare && vk == gpu::ImageKind::cube_array;
     case ResourceKind::sampler_cube_array:
       return !compare && vk == gpu::ImageKind::cube_array;
+    case ResourceKind::sampler_cube:
+      return !compare && vk == gpu::ImageKind::cube;
   }
   return false;
 }
@@ -512,7 +518,12 @@ std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
   d.kind = desc.cube ? (array ? gpu::ImageKind::cube_array : gpu::ImageKind::cube)
            : array   ? gpu::ImageKind::image_2d_array
                      : gpu::ImageKind::image_2d;
-  d.format = VK_FORMAT_D32_SFLOAT;
+  if (desc.format != VK_FORMAT_D32_SFLOAT && desc.format != VK_FORMAT_D16_UNORM &&
+      desc.format != VK_FORMAT_X8_D24_UNORM_PACK32) {
+    throw Error("DepthTextureDesc.format = " + std::to_string(int(desc.format)) +
+                ": must be D32_SFLOAT, D16_UNORM or X8_D24_UNORM_PACK32");
+  }
+  d.format = desc.format;
   d.width = desc.width;
   d.height = desc.height;
   d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
@@ -526,9 +537,32 @@ std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
                 " cannot linearly filter D32_SFLOAT without depth compare; use a nearest sampler "
                 "or a float texture");
   }
+  if (desc.format != VK_FORMAT_D32_SFLOAT) {
+    VkFormatProperties fp{};
+    vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), d.format, &fp);
+    if ((fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_BIT) == 0) {
+      throw Error("DepthTextureDesc.format: device " + ctx.info().name + " cannot sample " +
+                  (desc.format == VK_FORMAT_D16_UNORM ? "D16_UNORM" : "X8_D24_UNORM_PACK32") +
+                  " images");
+    }
+  }
   auto t =
       std::make_shared<Texture>(Texture{gpu::Image(ctx, d), gpu::Sampler(ctx, desc.sampler), true});
-  t->image.upload_floats(depth);
+  auto unorm = [](float v, double steps) {
+    const double c = std::isnan(v) ? 0.0 : std::clamp(double(v), 0.0, 1.0);
+    return std::nearbyint(c * steps);
+  };
+  if (desc.format == VK_FORMAT_D16_UNORM) {
+    std::vector<uint16_t> bits(depth.size());
+    for (size_t i = 0; i < depth.size(); ++i) bits[i] = uint16_t(unorm(depth[i], 65535.0));
+    t->image.upload(std::as_bytes(std::span<const uint16_t>(bits)));
+  } else if (desc.format == VK_FORMAT_X8_D24_UNORM_PACK32) {
+    std::vector<uint32_t> bits(depth.size());
+    for (size_t i = 0; i < depth.size(); ++i) bits[i] = uint32_t(unorm(depth[i], 16777215.0));
+    t->image.upload(std::as_bytes(std::span<const uint32_t>(bits)));
+  } else {
+    t->image.upload_floats(depth);
+  }
   return t;
 }
 
@@ -536,17 +570,22 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
                                             std::span<const float> texels) {
   auto& ctx = shared_context();
   gpu::ImageDesc d;
-  d.kind =
-      (desc.array || desc.layers > 1) ? gpu::ImageKind::image_2d_array : gpu::ImageKind::image_2d;
+  const bool array = desc.array || desc.layers > 1;
+  d.kind = desc.cube ? (array ? gpu::ImageKind::cube_array : gpu::ImageKind::cube)
+           : array   ? gpu::ImageKind::image_2d_array
+                     : gpu::ImageKind::image_2d;
+  if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
+    throw Error("FloatTextureDesc: device " + ctx.info().name +
+                " has no cube-map arrays (imageCubeArray)");
   switch (desc.channels) {
     case 1:
-      d.format = VK_FORMAT_R32_SFLOAT;
+      d.format = desc.half ? VK_FORMAT_R16_SFLOAT : VK_FORMAT_R32_SFLOAT;
       break;
     case 2:
-      d.format = VK_FORMAT_R32G32_SFLOAT;
+      d.format = desc.half ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
       break;
     case 4:
-      d.format = VK_FORMAT_R32G32B32A32_SFLOAT;
+      d.format = desc.half ? VK_FORMAT_R16G16B16A16_SFLOAT : VK_FORMAT_R32G32B32A32_SFLOAT;
       break;
     default:
       throw Error("FloatTextureDesc.channels = " + std::to_string(desc.channels) +
@@ -554,19 +593,25 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
   }
   d.width = desc.width;
   d.height = desc.height;
-  d.layers = desc.layers;
+  d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
   if (desc.sampler.filter == VK_FILTER_LINEAR) {
     VkFormatProperties fp{};
     vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), d.format, &fp);
     if ((fp.optimalTilingFeatures & VK_FORMAT_FEATURE_SAMPLED_IMAGE_FILTER_LINEAR_BIT) == 0) {
       throw Error("FloatTextureDesc.sampler: device " + ctx.info().name +
-                  " cannot linearly filter a " + std::to_string(desc.channels) +
-                  "-channel 32-bit float texture");
+                  " cannot linearly filter a " + std::to_string(desc.channels) + "-channel " +
+                  (desc.half ? "16" : "32") + "-bit float texture");
     }
   }
   auto t = std::make_shared<Texture>(
       Texture{gpu::Image(ctx, d), gpu::Sampler(ctx, desc.sampler), false});
-  t->image.upload(std::as_bytes(texels));
+  if (desc.half) {
+    std::vector<uint16_t> halves(texels.size());
+    for (size_t i = 0; i < texels.size(); ++i) halves[i] = glm::packHalf1x16(texels[i]);
+    t->image.upload(std::as_bytes(std::span<const uint16_t>(halves)));
+  } else {
+    t->image.upload(std::as_bytes(texels));
+  }
   return t;
 }
 

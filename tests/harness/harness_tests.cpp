@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <glm/gtc/packing.hpp>
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/gpu_test.hpp>
@@ -365,6 +366,57 @@ TEST_F(HarnessTest, ArrayCompareAndRawDepthResources) {
   ShaderFunction<float(Sampler2D, glm::vec2)> read(kFuncs, "raw_depth");
   read.bind(0, raw);
   EXPECT_EQ(read(glm::vec2(0.3f, 0.9f)), 0.2f);
+}
+
+// The texture formats a product's shaders read: RG/RGBA in fp16 come back as the nearest
+// halves (0.1 is not one), D16 and D24 depths as the nearest of their unorm steps, and a float
+// cube gives each face's value along that face's axis.
+TEST_F(HarnessTest, HalfFloatUnormDepthAndFloatCubeTextures) {
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2)> fetch(kFuncs, "fetch_texel");
+  const std::vector<float> rgba{0.1f, -2.5f, 65504.0f, 1.0f / 3.0f, 7.0f, 0.0f, -0.0f, 1e-3f};
+  for (uint32_t channels : {2u, 4u}) {
+    FloatTextureDesc half;
+    half.width = uint32_t(rgba.size()) / channels;
+    half.channels = channels;
+    half.half = true;
+    fetch.bind(0, make_float_texture(half, rgba));
+    for (uint32_t x = 0; x < half.width; ++x) {
+      const glm::vec4 got = fetch(glm::ivec2(int(x), 0));
+      for (uint32_t c = 0; c < channels; ++c) {
+        const float want = glm::unpackHalf1x16(glm::packHalf1x16(rgba[x * channels + c]));
+        EXPECT_EQ(got[int(c)], want) << channels << " channels, texel " << x << "." << c;
+      }
+    }
+  }
+  EXPECT_NE(glm::unpackHalf1x16(glm::packHalf1x16(0.1f)), 0.1f);  // the test sees the rounding
+
+  ShaderFunction<float(Sampler2D, glm::vec2)> read(kFuncs, "raw_depth");
+  const std::vector<float> depth{0.1f, 0.5f, 0.999999f, 0.3333333f};
+  for (auto [format, steps] : {std::pair{VK_FORMAT_D16_UNORM, 65535.0},
+                               std::pair{VK_FORMAT_X8_D24_UNORM_PACK32, 16777215.0}}) {
+    DepthTextureDesc d;
+    d.width = 4;
+    d.format = format;
+    d.sampler.compare = false;
+    read.bind(0, make_depth_texture(d, depth));
+    for (int x = 0; x < 4; ++x) {
+      const double want = std::nearbyint(double(depth[size_t(x)]) * steps) / steps;
+      // The unorm-to-float conversion is exact to 1 ULP of the float (Vulkan's unorm rule).
+      EXPECT_NEAR(read(glm::vec2((float(x) + 0.5f) / 4.0f, 0.5f)), want, want * 1.2e-7 + 1e-12)
+          << "format " << int(format) << ", texel " << x;
+    }
+  }
+  DepthTextureDesc bad;
+  bad.format = VK_FORMAT_R8_UNORM;
+  EXPECT_THROW(make_depth_texture(bad, std::span(depth).first(1)), Error);
+
+  FloatTextureDesc cube;
+  cube.cube = true;
+  const std::vector<float> faces{10.0f, 11.0f, 12.0f, 13.0f, 14.0f, 15.0f};  // +X -X +Y -Y +Z -Z
+  ShaderFunction<float(SamplerCube, glm::vec3)> at(kFuncs, "cube_value");
+  at.bind(0, make_float_texture(cube, faces));
+  const glm::vec3 axes[6] = {{1, 0, 0}, {-1, 0, 0}, {0, 1, 0}, {0, -1, 0}, {0, 0, 1}, {0, 0, -1}};
+  for (int f = 0; f < 6; ++f) EXPECT_EQ(at(axes[f] * 3.0f), faces[size_t(f)]) << "face " << f;
 }
 
 TEST_F(HarnessTest, ResourceErrorsNameTheParameter) {

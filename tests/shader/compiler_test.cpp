@@ -381,13 +381,18 @@ TEST(ShaderCompiler, RecompileIsACacheHitWithDependencies) {
   EXPECT_EQ(compiler.stats().compiles, 2u);
 }
 
+// A copy of the diamond test shader and its three includes, to edit.
+void copy_diamond(const fs::path& to) {
+  fs::copy(data_dir() / "diamond.comp", to / "diamond.comp");
+  fs::create_directories(to / "inc");
+  for (const char* name : {"left.glsl", "right.glsl", "common.glsl"}) {
+    fs::copy(data_dir() / "inc" / name, to / "inc" / name);
+  }
+}
+
 TEST(ShaderCompiler, EditingAnIncludedFileChangesTheKey) {
   TempDir dir;
-  fs::copy(data_dir() / "diamond.comp", dir.path() / "diamond.comp");
-  fs::create_directories(dir.path() / "inc");
-  for (const char* name : {"left.glsl", "right.glsl", "common.glsl"}) {
-    fs::copy(data_dir() / "inc" / name, dir.path() / "inc" / name);
-  }
+  copy_diamond(dir.path());
   Compiler compiler;
   const CompiledShader first = compiler.compile_file(dir.path() / "diamond.comp");
   EXPECT_THAT(first.dependencies,
@@ -475,11 +480,7 @@ TEST(ShaderCompiler, IncludeOnceLetsGuardFreeFilesShareAHelper) {
 // cannot be written costs nothing but the cache.
 TEST(ShaderCompiler, DiskCacheAnswersALaterProcessUntilAFileItReadChanges) {
   TempDir dir;
-  fs::copy(data_dir() / "diamond.comp", dir.path() / "diamond.comp");
-  fs::create_directories(dir.path() / "inc");
-  for (const char* name : {"left.glsl", "right.glsl", "common.glsl"}) {
-    fs::copy(data_dir() / "inc" / name, dir.path() / "inc" / name);
-  }
+  copy_diamond(dir.path());
   const fs::path shader = dir.path() / "diamond.comp";
   CompileOptions options;
   options.disk_cache_dir = dir.path() / "cache";

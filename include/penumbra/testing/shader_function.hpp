@@ -52,7 +52,8 @@ enum class ResourceKind {
   sampler2d,
   sampler2d_array,
   sampler_cube_array_shadow,
-  sampler_cube_array
+  sampler_cube_array,
+  sampler_cube
 };
 const char* glsl_name(ResourceKind kind);
 
@@ -72,6 +73,9 @@ struct SamplerCubeArrayShadow {
 struct SamplerCubeArray {  // raw depths (a non-compare sampler on a depth cube array)
   static constexpr ResourceKind kind = ResourceKind::sampler_cube_array;
 };
+struct SamplerCube {  // a float cube (make_float_texture with cube), or raw depths of a cube
+  static constexpr ResourceKind kind = ResourceKind::sampler_cube;
+};
 struct Sampler2D {
   static constexpr ResourceKind kind = ResourceKind::sampler2d;
 };
@@ -86,13 +90,16 @@ struct Texture {
   bool depth = false;
 };
 
-// A D32_SFLOAT depth texture (layers == 1: 2D; > 1 or array = true: 2D array; cube = true: 6
-// faces; cube with layers > 1 or array = true: a cube array of `layers` cubes, 6 faces each,
-// layer 6 c + f is face f of cube c) filled from `depth` (layer-major, row-major), sampled
-// through `sampler` (compare samplers for the *Shadow kinds). Default: compare LESS_OR_EQUAL,
-// nearest, clamp to edge.
+// A depth texture (layers == 1: 2D; > 1 or array = true: 2D array; cube = true: 6 faces; cube
+// with layers > 1 or array = true: a cube array of `layers` cubes, 6 faces each, layer 6 c + f
+// is face f of cube c) filled from `depth` (layer-major, row-major), sampled through `sampler`
+// (compare samplers for the *Shadow kinds). Default: compare LESS_OR_EQUAL, nearest, clamp to
+// edge. format: D32_SFLOAT (the default), D16_UNORM or X8_D24_UNORM_PACK32; for the unorm
+// formats each depth is clamped to [0, 1] and rounded to the nearest of 2^16 - 1 (2^24 - 1)
+// steps, as a depth attachment would store it.
 struct DepthTextureDesc {
   uint32_t width = 1, height = 1, layers = 1;
+  VkFormat format = VK_FORMAT_D32_SFLOAT;
   bool array = false;
   bool cube = false;
   gpu::SamplerDesc sampler{VK_FILTER_NEAREST,
@@ -106,10 +113,15 @@ struct DepthTextureDesc {
 std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
                                             std::span<const float> depth);
 
-// A float texture with 1, 2 or 4 channels (R32 / RG32 / RGBA32 SFLOAT).
+// A float texture with 1, 2 or 4 channels: R32 / RG32 / RGBA32 SFLOAT, or with half = true
+// R16 / RG16 / RGBA16 SFLOAT (each texel rounded to the nearest half, as the GPU stores it).
+// layers == 1: 2D; > 1 or array = true: 2D array; cube = true: `layers` cubes of 6 faces
+// (layer 6 c + f is face f of cube c), a cube array when layers > 1 or array = true.
 struct FloatTextureDesc {
   uint32_t width = 1, height = 1, layers = 1, channels = 1;
   bool array = false;
+  bool cube = false;
+  bool half = false;
   gpu::SamplerDesc sampler{};
 };
 std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,

@@ -66,6 +66,8 @@ float scaled(float x) { return x * HARNESS_SCALE * kSpecScale; }
 float compare_tap(sampler2DShadow map, vec3 uv_ref) { return texture(map, uv_ref); }
 float compare_tap_array(sampler2DArrayShadow map, vec4 uv_layer_ref) { return texture(map, uv_layer_ref); }
 float raw_depth(sampler2D map, vec2 uv) { return textureLod(map, uv, 0.0).r; }
+vec4 fetch_texel(sampler2D map, ivec2 p) { return texelFetch(map, p, 0); }
+float cube_value(samplerCube cube, vec3 dir) { return textureLod(cube, dir, 0.0).r; }
 
 // 3×3 PCF of bilinear compare taps, one texel apart.
 float pcf3x3(sampler2DShadow map, vec2 uv, float ref, vec2 texel) {
