@@ -35,6 +35,28 @@ function(penumbra_discover_suites target)
   set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${include_file}")
 endfunction()
 
+# penumbra_discover_each_test(<target> [LABELS <l>...] [ENVIRONMENT <VAR=value>...]
+#                             [TIMEOUT <s>])
+# One CTest test per GoogleTest test, "<target>:<Suite>.<Test>" (gtest_discover_tests), with
+# the labels and environment applied after discovery: gtest_discover_tests(PROPERTIES ...)
+# flattens list values (two labels, two variables).
+function(penumbra_discover_each_test target)
+  cmake_parse_arguments(D "" "TIMEOUT" "LABELS;ENVIRONMENT" ${ARGN})
+  include(GoogleTest)
+  gtest_discover_tests(${target} TEST_PREFIX "${target}:" DISCOVERY_TIMEOUT 60)
+  set(script "${CMAKE_CURRENT_BINARY_DIR}/${target}_properties.cmake")
+  set(timeout "")
+  if(D_TIMEOUT)
+    set(timeout " TIMEOUT ${D_TIMEOUT}")
+  endif()
+  file(WRITE "${script}"
+    "foreach(t IN LISTS ${target}_TESTS)\n"
+    "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${D_LABELS}\"\n"
+    "    ENVIRONMENT \"${D_ENVIRONMENT}\"${timeout})\n"
+    "endforeach()\n")
+  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
+endfunction()
+
 # penumbra_add_shader_tests(<name> SOURCES <files>... [SHADER_DIRS <dirs>...] [LABELS <l>...]
 #                           [LIBS <targets>...] [TIMEOUT <s>] [PER_TEST])
 # Builds a GoogleTest executable of shader-function tests linked with Penumbra::testing_main and
@@ -68,23 +90,11 @@ function(penumbra_add_shader_tests name)
   if(PENUMBRA_PACKAGE_SHADER_DIR)  # set by PenumbraConfig.cmake: the package's own copy
     list(APPEND env "PENUMBRA_SHADER_DIR=${PENUMBRA_PACKAGE_SHADER_DIR}")
   endif()
-  if(NOT T_PER_TEST)
+  if(T_PER_TEST)
+    penumbra_discover_each_test(${name} LABELS ${T_LABELS} ENVIRONMENT ${env}
+                                TIMEOUT "${T_TIMEOUT}")
+  else()
     penumbra_discover_suites(${name} PREFIX "${name}:" LABELS ${T_LABELS} ENVIRONMENT ${env}
                              TIMEOUT "${T_TIMEOUT}")
-    return()
   endif()
-  include(GoogleTest)
-  gtest_discover_tests(${name} TEST_PREFIX "${name}:" DISCOVERY_TIMEOUT 60)
-  # gtest_discover_tests(PROPERTIES ...) flattens list values: applied after discovery instead.
-  set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
-  set(timeout "")
-  if(T_TIMEOUT)
-    set(timeout " TIMEOUT ${T_TIMEOUT}")
-  endif()
-  file(WRITE "${script}"
-    "foreach(t IN LISTS ${name}_TESTS)\n"
-    "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${T_LABELS}\"\n"
-    "    ENVIRONMENT \"${env}\"${timeout})\n"
-    "endforeach()\n")
-  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
 endfunction()

@@ -34,19 +34,11 @@ function(penumbra_add_test name)
   target_compile_definitions(${name} PRIVATE
     PENUMBRA_SHADER_DIR="${PENUMBRA_SHADER_DIR}"
     PENUMBRA_TEST_DATA_DIR="${CMAKE_SOURCE_DIR}/tests/data")
-  if(NOT PENUMBRA_CTEST_PER_TEST)
+  if(PENUMBRA_CTEST_PER_TEST)
+    penumbra_discover_each_test(${name} LABELS ${T_LABELS}
+                                ENVIRONMENT ${PENUMBRA_TEST_ENVIRONMENT})
+  else()
     penumbra_discover_suites(${name} PREFIX "${name}:" LABELS ${T_LABELS}
                              ENVIRONMENT ${PENUMBRA_TEST_ENVIRONMENT} FAIL_ON_SKIP)
-    return()
   endif()
-  gtest_discover_tests(${name} TEST_PREFIX "${name}:" DISCOVERY_TIMEOUT 60)
-  # gtest_discover_tests(PROPERTIES ...) flattens list values (two labels, two environment
-  # variables), so the properties are applied by a script that runs after discovery.
-  set(script "${CMAKE_CURRENT_BINARY_DIR}/${name}_properties.cmake")
-  file(WRITE "${script}"
-    "foreach(t IN LISTS ${name}_TESTS)\n"
-    "  set_tests_properties(\"\${t}\" PROPERTIES LABELS \"${T_LABELS}\"\n"
-    "    ENVIRONMENT \"${PENUMBRA_TEST_ENVIRONMENT}\")\n"
-    "endforeach()\n")
-  set_property(DIRECTORY APPEND PROPERTY TEST_INCLUDE_FILES "${script}")
 endfunction()
