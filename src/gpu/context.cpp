@@ -82,6 +82,24 @@ DeviceInfo describe(VkPhysicalDevice pd, uint32_t index) {
   info.depth_clamp = features.depthClamp == VK_TRUE;
   info.image_cube_array = features.imageCubeArray == VK_TRUE;
   info.storage_image_extended_formats = features.shaderStorageImageExtendedFormats == VK_TRUE;
+  info.storage_read_without_format = features.shaderStorageImageReadWithoutFormat == VK_TRUE;
+  {
+    uint32_t n = 0;
+    vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, nullptr);
+    std::vector<VkExtensionProperties> exts(n);
+    vkEnumerateDeviceExtensionProperties(pd, nullptr, &n, exts.data());
+    const bool has = std::any_of(exts.begin(), exts.end(), [](const VkExtensionProperties& e) {
+      return std::string(e.extensionName) == VK_EXT_ROBUSTNESS_2_EXTENSION_NAME;
+    });
+    if (has) {
+      VkPhysicalDeviceRobustness2FeaturesEXT r2{
+          VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ROBUSTNESS_2_FEATURES_EXT};
+      VkPhysicalDeviceFeatures2 f2{VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_FEATURES_2, &r2};
+      vkGetPhysicalDeviceFeatures2(pd, &f2);
+      info.robustness2 = r2.robustBufferAccess2 == VK_TRUE && r2.robustImageAccess2 == VK_TRUE &&
+                         features.robustBufferAccess == VK_TRUE;
+    }
+  }
   VkFormatProperties fp{};
   vkGetPhysicalDeviceFormatProperties(pd, VK_FORMAT_D32_SFLOAT, &fp);
   info.linear_filter_d32 =
@@ -277,6 +295,32 @@ Context::Context(const ContextOptions& options) {
     // The sun's EVSM moments are rg16f / rg32f storage images (shaders/render/evsm_moments.comp).
     features.features.shaderStorageImageExtendedFormats =
         supported.shaderStorageImageExtendedFormats;
+    // Shader-function tests of code that reads a format-less storage image parameter.
+    features.features.shaderStorageImageReadWithoutFormat =
+        supported.shaderStorageImageReadWithoutFormat;
+    std::vector<std::string> extra_extensions;
+    VkPhysicalDeviceRobustness2FeaturesEXT r2{
+        VK_STRUCTURE_TYPE_PHYSICAL_DEVICE_ROBUSTNESS_2_FEATURES_EXT};
+    bool robust = false;
+    if (options.robust_access.has_value()) {
+      robust = *options.robust_access;
+    } else if (const char* env = std::getenv("PENUMBRA_ROBUST_ACCESS")) {
+      robust = std::string(env) == "1";
+    }
+    if (robust) {
+      if (!info_.robustness2) {
+        throw Error("robust access (ContextOptions::robust_access or PENUMBRA_ROBUST_ACCESS=1): "
+                    "device " + info_.name + " has no VK_EXT_robustness2 with robustBufferAccess2 "
+                    "and robustImageAccess2");
+      }
+      features.features.robustBufferAccess = VK_TRUE;
+      r2.robustBufferAccess2 = VK_TRUE;
+      r2.robustImageAccess2 = VK_TRUE;
+      r2.pNext = features.pNext;
+      features.pNext = &r2;
+      extra_extensions.push_back(VK_EXT_ROBUSTNESS_2_EXTENSION_NAME);
+      info_.robust_access = true;
+    }
 
     const float priority = 1.0f;
     VkDeviceQueueCreateInfo qci{VK_STRUCTURE_TYPE_DEVICE_QUEUE_CREATE_INFO};
@@ -288,6 +332,7 @@ Context::Context(const ContextOptions& options) {
     dci.pQueueCreateInfos = &qci;
     std::vector<const char*> device_extensions;
     for (const auto& e : options.device_extensions) device_extensions.push_back(e.c_str());
+    for (const auto& e : extra_extensions) device_extensions.push_back(e.c_str());
     dci.enabledExtensionCount = static_cast<uint32_t>(device_extensions.size());
     dci.ppEnabledExtensionNames = device_extensions.data();
     check(vkCreateDevice(physical_device_, &dci, nullptr, &device_), "vkCreateDevice");
@@ -343,7 +388,13 @@ std::string Context::report() const {
     << "compute:     max workgroup invocations " << l.maxComputeWorkGroupInvocations
     << ", max group count x " << l.maxComputeWorkGroupCount[0] << "\n"
     << "features:    depthClamp " << (info_.depth_clamp ? "yes" : "no") << ", D32 linear filter "
-    << (info_.linear_filter_d32 ? "yes" : "no") << "\n";
+    << (info_.linear_filter_d32 ? "yes" : "no") << ", storage read without format "
+    << (info_.storage_read_without_format ? "yes" : "no") << "\n"
+    << "robustness:  "
+    << (info_.robust_access ? "on (robustBufferAccess2, robustImageAccess2)"
+        : info_.robustness2 ? "off (available: PENUMBRA_ROBUST_ACCESS=1)"
+                            : "off (no VK_EXT_robustness2)")
+    << "\n";
   const char* cache = std::getenv("MESA_SHADER_CACHE_DIR");
   const char* disabled = std::getenv("MESA_SHADER_CACHE_DISABLE");
   if (info_.is_cpu) {

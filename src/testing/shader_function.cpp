@@ -34,6 +34,10 @@ const char* glsl_name(ResourceKind kind) {
       return "samplerCubeArray";
     case ResourceKind::sampler_cube:
       return "samplerCube";
+    case ResourceKind::image2d:
+      return "image2D";
+    case ResourceKind::image2d_array:
+      return "image2DArray";
   }
   return "?";
 }
@@ -186,14 +190,28 @@ std::string numbered(const std::string& source) {
   return out.str();
 }
 
-VkDescriptorType descriptor_type(ResourceKind) {
-  return VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+bool is_storage(ResourceKind kind) {
+  return kind == ResourceKind::image2d || kind == ResourceKind::image2d_array;
 }
 
-bool kind_matches(ResourceKind kind, const Texture& t) {
+VkDescriptorType descriptor_type(ResourceKind kind) {
+  return is_storage(kind) ? VK_DESCRIPTOR_TYPE_STORAGE_IMAGE
+                          : VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER;
+}
+
+bool kind_matches(ResourceKind kind, const Texture& t, const ExternalSampler& external) {
   const auto vk = t.image.desc().kind;
-  const bool compare = t.sampler.desc().compare;
+  if (is_storage(kind)) {
+    return t.storage && (kind == ResourceKind::image2d ? vk == gpu::ImageKind::image_2d
+                                                       : vk == gpu::ImageKind::image_2d_array);
+  }
+  if (t.storage) return false;
+  const bool compare =
+      external.handle != VK_NULL_HANDLE ? external.compare : t.sampler.desc().compare;
   switch (kind) {
+    case ResourceKind::image2d:
+    case ResourceKind::image2d_array:
+      return false;
     case ResourceKind::sampler2d_shadow:
       return t.depth && compare && vk == gpu::ImageKind::image_2d;
     case ResourceKind::sampler2d_array_shadow:
@@ -214,14 +232,158 @@ bool kind_matches(ResourceKind kind, const Texture& t) {
   return false;
 }
 
-std::string describe_texture(const Texture& t) {
+std::string describe_texture(const Texture& t, const ExternalSampler& external) {
   const auto& d = t.image.desc();
   std::string kind = d.kind == gpu::ImageKind::image_2d         ? "2D"
                      : d.kind == gpu::ImageKind::image_2d_array ? "2D array"
                      : d.kind == gpu::ImageKind::cube           ? "cube"
                                                                 : "cube array";
-  return kind + (t.depth ? " depth" : " float") + " texture with a " +
-         (t.sampler.desc().compare ? "compare" : "non-compare") + " sampler";
+  if (t.storage) return kind + " storage image";
+  const bool own = external.handle == VK_NULL_HANDLE;
+  const bool compare = own ? t.sampler.desc().compare : external.compare;
+  return kind + (t.depth ? " depth" : " float") + " texture with " + (own ? "a " : "the caller's ") +
+         (compare ? "compare" : "non-compare") + " sampler";
+}
+
+// SPIR-V: does the module declare this capability (OpCapability, opcode 17)?
+constexpr uint32_t kCapabilityStorageImageReadWithoutFormat = 55;
+bool uses_capability(const std::vector<uint32_t>& spirv, uint32_t capability) {
+  for (size_t i = 5; i < spirv.size();) {
+    const uint32_t words = spirv[i] >> 16, opcode = spirv[i] & 0xffffu;
+    if (words == 0) break;
+    if (opcode == 17 && i + 1 < spirv.size() && spirv[i + 1] == capability) return true;
+    i += words;
+  }
+  return false;
+}
+
+// ---- bounds checks -----------------------------------------------------------------------------
+
+// The overloads the checked texel fetches cover: every GLSL type texelFetch takes, so that a
+// tested file's other code (globals of other types included) still compiles under the macros.
+struct FetchOverload {
+  const char* type;    // without the i/u prefix
+  const char* coord;   // coordinate type
+  int dims;            // components of the coordinate (the last is the layer for arrays)
+  bool lod;            // texelFetch takes a level (else: none, or a sample index for MS)
+  bool ms;             // multisampled: the third argument is the sample
+};
+constexpr FetchOverload kFetchOverloads[] = {
+    {"sampler1D", "int", 1, true, false},        {"sampler2D", "ivec2", 2, true, false},
+    {"sampler3D", "ivec3", 3, true, false},      {"sampler1DArray", "ivec2", 2, true, false},
+    {"sampler2DArray", "ivec3", 3, true, false}, {"samplerBuffer", "int", 1, false, false},
+    {"sampler2DMS", "ivec2", 2, false, true},    {"sampler2DMSArray", "ivec3", 3, false, true},
+};
+constexpr const char* kBoundsOps[] = {"texelFetch", "texelFetchOffset", "imageLoad", "imageStore"};
+
+// std430 layout of PenumbraBounds: 11 scalars, 4 bytes each, in this order.
+constexpr const char* kBoundsMembers[] = {"count", "first_case", "op",     "type", "level", "levels",
+                                          "x",     "y",          "z",      "w",    "h",     "d"};
+constexpr uint32_t kBoundsBytes = sizeof(kBoundsMembers) / sizeof(kBoundsMembers[0]) * 4;
+
+std::string ivec3_of(const char* coord, const std::string& v) {
+  return std::string(coord) == "int"     ? "ivec3(" + v + ", 0, 0)"
+         : std::string(coord) == "ivec2" ? "ivec3(" + v + ", 0)"
+                                         : v;
+}
+
+// GLSL placed before the tested file: the report buffer, the case index, the checked versions,
+// and the macros that route the tested code's calls through them. Type names (the `type` the
+// report records) are collected in `types`.
+std::string bounds_prelude(uint32_t binding, bool images, std::vector<std::string>& types) {
+  std::ostringstream g;
+  g << "// ---- Penumbra bounds checks (FunctionOptions::check_bounds) ----\n";
+  g << "layout(std430, set = 0, binding = " << binding << ") buffer PenumbraBounds {\n  uint count;\n"
+    << "  uint first_case;\n  uint op;\n  uint type;\n  int level;\n  int levels;\n"
+    << "  int x;\n  int y;\n  int z;\n  int w;\n  int h;\n  int d;\n} penumbra_bounds;\n";
+  g << "uint penumbra_case = 0u;\n";
+  g << "void penumbra_out_of_bounds(uint op, uint type, ivec3 p, int level, ivec3 size, int "
+       "levels) {\n"
+       "  if (atomicAdd(penumbra_bounds.count, 1u) != 0u) return;\n"
+       "  penumbra_bounds.first_case = penumbra_case;\n"
+       "  penumbra_bounds.op = op;\n  penumbra_bounds.type = type;\n"
+       "  penumbra_bounds.level = level;\n  penumbra_bounds.levels = levels;\n"
+       "  penumbra_bounds.x = p.x;\n  penumbra_bounds.y = p.y;\n  penumbra_bounds.z = p.z;\n"
+       "  penumbra_bounds.w = size.x;\n  penumbra_bounds.h = size.y;\n"
+       "  penumbra_bounds.d = size.z;\n}\n";
+  g << "bool penumbra_inside(ivec3 p, ivec3 size) {\n"
+       "  return all(greaterThanEqual(p, ivec3(0))) && all(lessThan(p, size));\n}\n";
+  for (const char* prefix : {"", "i", "u"}) {
+    const std::string vec4 = std::string(prefix) + "vec4";
+    for (const auto& o : kFetchOverloads) {
+      const std::string type = std::string(prefix) + o.type;
+      const uint32_t id = uint32_t(types.size());
+      types.push_back(type);
+      const std::string p3 = ivec3_of(o.coord, "p");
+      const std::string size3 =
+          ivec3_of(o.coord, o.lod ? "textureSize(s, lod)" : "textureSize(s)");
+      for (int op = 0; op < 2; ++op) {
+        if (op == 1 && (!o.lod || std::string(o.type) == "samplerBuffer")) continue;
+        g << vec4 << " penumbra_checked_" << kBoundsOps[op] << "(" << type << " s, " << o.coord
+          << " p";
+        if (o.lod) g << ", int lod";
+        if (o.ms) g << ", int lod";  // the sample index, named lod to share the code below
+        // The offset has no layer component: int for 1D and 1D arrays, ivec2 for 2D and 2D
+        // arrays, ivec3 for 3D.
+        const char* offset_type = std::string(o.type) == "sampler1DArray"   ? "int"
+                                  : std::string(o.type) == "sampler2DArray" ? "ivec2"
+                                                                            : o.coord;
+        if (op == 1) g << ", " << offset_type << " offset";
+        g << ") {\n";
+        if (op == 1) {
+          g << "  p += " << (std::string(offset_type) == o.coord ? "offset"
+                             : std::string(offset_type) == "int" ? "ivec2(offset, 0)"
+                                                                 : "ivec3(offset, 0)")
+            << ";\n";
+        }
+        if (o.lod) {
+          g << "  int levels = textureQueryLevels(s);\n"
+               "  bool level_ok = lod >= 0 && lod < levels;\n"
+            << "  ivec3 size = level_ok ? " << size3 << " : ivec3(0);\n";
+        } else if (o.ms) {
+          g << "  int levels = textureSamples(s);\n  bool level_ok = lod >= 0 && lod < levels;\n"
+            << "  ivec3 size = " << size3 << ";\n";
+        } else {
+          g << "  int levels = 1;\n  bool level_ok = true;\n  int lod = 0;\n"
+            << "  ivec3 size = " << size3 << ";\n";
+        }
+        if (std::string(o.coord) == "int") g << "  size.yz = ivec2(1);\n";
+        if (std::string(o.coord) == "ivec2") g << "  size.z = 1;\n";
+        g << "  if (!level_ok || !penumbra_inside(" << p3 << ", size)) {\n"
+          << "    penumbra_out_of_bounds(" << op << "u, " << id << "u, " << p3
+          << ", lod, size, levels);\n    return " << vec4 << "(0);\n  }\n";
+        g << "  return texelFetch(s, p" << (o.lod || o.ms ? ", lod" : "") << ");\n}\n";
+      }
+    }
+  }
+  if (images) {
+    // Format-less, like the harness's own storage images (a parameter cannot carry a format).
+    // The memory qualifiers accept any argument that may be read (or written).
+    for (const auto& [type, coord] :
+         {std::pair<const char*, const char*>{"image2D", "ivec2"}, {"image2DArray", "ivec3"}}) {
+      const uint32_t id = uint32_t(types.size());
+      types.push_back(type);
+      const std::string p3 = ivec3_of(coord, "p");
+      const std::string size3 = ivec3_of(coord, "imageSize(img)");
+      const std::string check = std::string("  ivec3 size = ") + size3 + ";\n" +
+                                (std::string(coord) == "ivec2" ? "  size.z = 1;\n" : "") +
+                                "  bool inside = penumbra_inside(" + p3 + ", size);\n";
+      g << "vec4 penumbra_checked_imageLoad(coherent volatile readonly " << type << " img, "
+        << coord << " p) {\n"
+        << check << "  if (!inside) {\n    penumbra_out_of_bounds(2u, " << id << "u, " << p3
+        << ", 0, size, 1);\n    return vec4(0);\n  }\n  return imageLoad(img, p);\n}\n";
+      g << "void penumbra_checked_imageStore(coherent volatile writeonly " << type << " img, "
+        << coord << " p, vec4 v) {\n"
+        << check << "  if (!inside) {\n    penumbra_out_of_bounds(3u, " << id << "u, " << p3
+        << ", 0, size, 1);\n    return;\n  }\n  imageStore(img, p, v);\n}\n";
+    }
+    g << "#define imageLoad penumbra_checked_imageLoad\n";
+    g << "#define imageStore penumbra_checked_imageStore\n";
+  }
+  g << "#define texelFetch penumbra_checked_texelFetch\n";
+  g << "#define texelFetchOffset penumbra_checked_texelFetchOffset\n";
+  g << "// ---- end of the bounds checks ----\n";
+  return g.str();
 }
 
 }  // namespace
@@ -234,6 +396,7 @@ struct FunctionEngine::Impl {
   std::unique_ptr<gpu::DescriptorPool> pool;
   std::unique_ptr<gpu::CommandRecorder> recorder;
   gpu::Buffer in, out;
+  gpu::Buffer bounds;  // PenumbraBounds (check_bounds)
   uint32_t workgroup = 64;
   std::mutex mutex;
 };
@@ -289,6 +452,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
         sig << "inout " << type_name(*p.type);
         break;
       case ParamSpec::Dir::resource: {
+        // Storage images are format-less (a parameter cannot carry a format) and have no memory
+        // qualifiers (an argument may not have more than its parameter).
         const std::string res = "penumbra_res" + std::to_string(resource_kinds.size());
         resources << "layout(set = 0, binding = " << (2 + resource_kinds.size()) << ") uniform "
                   << glsl_name(p.resource) << " " << res << ";\n";
@@ -319,11 +484,18 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
     return s;
   };
 
+  const bool any_storage = std::any_of(resource_kinds.begin(), resource_kinds.end(), is_storage);
+  const uint32_t bounds_binding = uint32_t(2 + resource_kinds.size());
+  std::vector<std::string> bounds_types;
   std::ostringstream src;
   src << "#version 460\n";
   src << "#extension GL_GOOGLE_include_directive : require\n";
+  // Declaring a format-less storage image that is not writeonly; reading one needs the device's
+  // shaderStorageImageReadWithoutFormat (checked after compiling, on the SPIR-V's capabilities).
+  if (any_storage) src << "#extension GL_EXT_shader_image_load_formatted : enable\n";
   src << "// Penumbra shader-function wrapper for " << sig.str() << " from " << file.string()
       << "\n";
+  if (options.check_bounds) src << bounds_prelude(bounds_binding, any_storage, bounds_types);
   if (!options.prelude.empty()) src << options.prelude << "\n";
   src << "#include \"" << file.string() << "\"\n\n";
   src << "layout(local_size_x = " << options.workgroup_size << ") in;\n";
@@ -344,6 +516,7 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   src << "void main() {\n";
   src << "  if (gl_GlobalInvocationID.x >= penumbra_pc.count) return;\n";
   src << "  uint i = penumbra_pc.base + gl_GlobalInvocationID.x;\n";
+  if (options.check_bounds) src << "  penumbra_case = i;\n";
   src << "  PenumbraIn c = penumbra_in.cases[i];\n";
   src << pre.str();
   src << "  " << (return_type ? "penumbra_out.results[i].ret = " : "") << function << "("
@@ -383,6 +556,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   e->source_ = src.str();
   e->resource_kinds_ = resource_kinds;
   e->resource_params_ = resource_params;
+  e->check_bounds_ = options.check_bounds;
+  e->bounds_types_ = bounds_types;
   const auto in_struct = layout_of(in_members, e->input_offsets_, e->input_types_);
   const auto out_struct = layout_of(out_members, e->output_offsets_, e->output_types_);
   e->input_stride_ = in_struct->stride();
@@ -432,15 +607,45 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
               e->input_stride_);
   check_block(refl, "PenumbraOutputs", "PenumbraOut", out_members, e->output_offsets_,
               e->output_stride_);
+  if (options.check_bounds) {
+    const auto* b = refl.find_binding("PenumbraBounds");
+    if (b == nullptr || !b->block) throw Error("wrapper reflection: block PenumbraBounds not found");
+    for (uint32_t k = 0; k < kBoundsBytes / 4; ++k) {
+      const auto& members = b->block->members;
+      auto it = std::find_if(members.begin(), members.end(), [&](const shader::BlockMember& m) {
+        return m.name == kBoundsMembers[k];
+      });
+      if (it == members.end() || it->offset != 4 * k || it->size != 4) {
+        throw Error(std::string("wrapper reflection: PenumbraBounds.") + kBoundsMembers[k] +
+                    " is not the 4-byte scalar at offset " + std::to_string(4 * k));
+      }
+    }
+  }
+
+  // ---- what the SPIR-V needs of the device ----
+  auto& ctx = shared_context();
+  if (uses_capability(compiled.spirv, kCapabilityStorageImageReadWithoutFormat) &&
+      !ctx.info().storage_read_without_format) {
+    throw Error("ShaderFunction " + e->signature_ + " from " + file.string() +
+                " reads a storage image parameter (imageLoad of a format-less image2D): that needs "
+                "shaderStorageImageReadWithoutFormat, which device " + ctx.info().name +
+                " does not have. A function that only writes its image runs everywhere; to test "
+                "reads here, pass the image as a sampler2D and texelFetch it");
+  }
 
   // ---- pipeline ----
-  auto impl = std::make_unique<Impl>(shared_context(), options.workgroup_size);
+  auto impl = std::make_unique<Impl>(ctx, options.workgroup_size);
   std::vector<gpu::BindingDesc> bindings{
       {0, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT},
       {1, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT}};
   for (size_t r = 0; r < resource_kinds.size(); ++r)
     bindings.push_back({static_cast<uint32_t>(2 + r), descriptor_type(resource_kinds[r]), 1,
                         VK_SHADER_STAGE_COMPUTE_BIT});
+  if (options.check_bounds) {
+    bindings.push_back(
+        {bounds_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
+    impl->bounds = gpu::Buffer(ctx, kBoundsBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  }
   impl->layout = std::make_unique<gpu::PipelineLayout>(
       impl->ctx, std::vector<std::vector<gpu::BindingDesc>>{bindings}, 8u,
       VkShaderStageFlags{VK_SHADER_STAGE_COMPUTE_BIT});
@@ -457,23 +662,32 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
 
 void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
                          std::span<std::byte> outputs,
-                         const std::vector<std::shared_ptr<Texture>>& resources) {
+                         const std::vector<ResourceBinding>& resources) {
   std::lock_guard lock(impl_->mutex);
   auto& ctx = impl_->ctx;
   if (inputs.size() < count * input_stride_ || outputs.size() < count * output_stride_) {
     throw Error("FunctionEngine::run: buffers smaller than count · stride");
   }
+  bool any_storage = false;
   for (size_t r = 0; r < resource_kinds_.size(); ++r) {
-    if (r >= resources.size() || !resources[r]) {
+    if (r >= resources.size() || !resources[r].texture) {
       throw Error("ShaderFunction " + signature_ + ": resource parameter " +
                   std::to_string(resource_params_[r]) + " (" + glsl_name(resource_kinds_[r]) +
-                  ") has no texture bound; call bind(" + std::to_string(r) + ", texture)");
+                  ") has no " + (is_storage(resource_kinds_[r]) ? "image" : "texture") +
+                  " bound; call bind(" + std::to_string(r) + ", " +
+                  (is_storage(resource_kinds_[r]) ? "make_storage_image(...))" : "texture)"));
     }
-    if (!kind_matches(resource_kinds_[r], *resources[r])) {
+    const auto& b = resources[r];
+    if (!kind_matches(resource_kinds_[r], *b.texture, b.sampler)) {
       throw Error("ShaderFunction " + signature_ + ": resource parameter " +
                   std::to_string(resource_params_[r]) + " is a " + glsl_name(resource_kinds_[r]) +
-                  " but the bound texture is a " + describe_texture(*resources[r]));
+                  " but the bound texture is a " + describe_texture(*b.texture, b.sampler));
     }
+    if (b.texture->storage && b.sampler.handle != VK_NULL_HANDLE) {
+      throw Error("ShaderFunction " + signature_ + ": resource parameter " +
+                  std::to_string(resource_params_[r]) + " is a storage image: it takes no sampler");
+    }
+    any_storage = any_storage || b.texture->storage;
   }
   const VkDeviceSize in_bytes = std::max<VkDeviceSize>(16, count * input_stride_);
   const VkDeviceSize out_bytes = std::max<VkDeviceSize>(16, count * output_stride_);
@@ -482,19 +696,41 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
   if (impl_->out.size() < out_bytes)
     impl_->out = gpu::Buffer(ctx, out_bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   impl_->in.write(inputs.first(count * input_stride_));
+  if (check_bounds_) {
+    const std::vector<std::byte> zeros(kBoundsBytes, std::byte{0});
+    impl_->bounds.write(zeros);
+  }
 
   impl_->pool->reset();
   VkDescriptorSet set = impl_->pool->allocate(impl_->layout->set_layout(0));
   gpu::DescriptorWriter w;
   w.buffer(0, impl_->in.handle()).buffer(1, impl_->out.handle());
-  for (size_t r = 0; r < resource_kinds_.size(); ++r)
-    w.combined_image(static_cast<uint32_t>(2 + r), resources[r]->image.view(),
-                     resources[r]->sampler.handle());
+  for (size_t r = 0; r < resource_kinds_.size(); ++r) {
+    const auto& b = resources[r];
+    const uint32_t binding = static_cast<uint32_t>(2 + r);
+    if (b.texture->storage) {
+      w.storage_image(binding, b.texture->image.view());
+    } else {
+      w.combined_image(binding, b.texture->image.view(),
+                       b.sampler.handle != VK_NULL_HANDLE ? b.sampler.handle
+                                                          : b.texture->sampler.handle());
+    }
+  }
+  if (check_bounds_) w.buffer(static_cast<uint32_t>(2 + resource_kinds_.size()), impl_->bounds.handle());
   w.update(ctx, set);
 
   const uint64_t per_dispatch =
       uint64_t{ctx.info().limits.maxComputeWorkGroupCount[0]} * impl_->workgroup;
   VkCommandBuffer cmd = impl_->recorder->begin();
+  if (any_storage) {
+    // Storage images keep their content between runs: make an earlier run's (or an upload's)
+    // writes visible to this one.
+    VkMemoryBarrier mb{VK_STRUCTURE_TYPE_MEMORY_BARRIER};
+    mb.srcAccessMask = VK_ACCESS_MEMORY_WRITE_BIT;
+    mb.dstAccessMask = VK_ACCESS_SHADER_READ_BIT | VK_ACCESS_SHADER_WRITE_BIT;
+    vkCmdPipelineBarrier(cmd, VK_PIPELINE_STAGE_ALL_COMMANDS_BIT,
+                         VK_PIPELINE_STAGE_COMPUTE_SHADER_BIT, 0, 1, &mb, 0, nullptr, 0, nullptr);
+  }
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->pipeline->handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->layout->handle(), 0, 1, &set,
                           0, nullptr);
@@ -506,7 +742,66 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
   }
   impl_->recorder->submit_and_wait();
   impl_->out.read(outputs.first(count * output_stride_));
+  if (check_bounds_) {
+    const auto v = impl_->bounds.read_vector<int32_t>(kBoundsBytes / 4);
+    if (v[0] != 0) throw OutOfBoundsError(describe_out_of_bounds(v));
+  }
 }
+
+std::string FunctionEngine::describe_out_of_bounds(const std::vector<int32_t>& v) const {
+  // v: the PenumbraBounds scalars in kBoundsMembers order.
+  const uint32_t count = uint32_t(v[0]), first = uint32_t(v[1]), op = uint32_t(v[2]);
+  const uint32_t type = uint32_t(v[3]);
+  const std::string type_name = type < bounds_types_.size() ? bounds_types_[type] : "?";
+  const bool ms = type_name.find("MS") != std::string::npos;
+  const bool arrayed = type_name.find("Array") != std::string::npos;
+  const int dims = type_name.find("1D") != std::string::npos || type_name.find("Buffer") !=
+                   std::string::npos ? 1 : type_name.find("3D") != std::string::npos ? 3 : 2;
+  const int comps = dims + (arrayed ? 1 : 0);
+  auto vec = [&](int a, int b, int c) {
+    const int xs[3] = {a, b, c};
+    std::string s = comps == 1 ? "" : "ivec" + std::to_string(comps) + "(";
+    for (int k = 0; k < comps; ++k) s += (k ? ", " : "") + std::to_string(xs[k]);
+    return s + (comps == 1 ? "" : ")");
+  };
+  std::ostringstream m;
+  m << "ShaderFunction " << signature_ << ": " << count << " access(es) outside an image"
+    << " (out-of-bounds texel fetches and image accesses are undefined; FunctionOptions::"
+       "check_bounds); the first recorded: case "
+    << first << ": " << (op < 4 ? kBoundsOps[op] : "?") << " of a " << type_name << " at "
+    << vec(v[6], v[7], v[8]);
+  if (op == 1) m << " (coordinate plus offset)";
+  std::string size = std::to_string(v[9]);
+  if (comps >= 2) size += "x" + std::to_string(v[10]);
+  if (comps >= 3) size += "x" + std::to_string(v[11]);
+  if (ms) {
+    m << ", sample " << v[4] << " of " << v[5];
+  } else if (op < 2 && type_name.find("Buffer") == std::string::npos) {
+    m << ", level " << v[4] << " of " << v[5];
+  }
+  m << "; the " << (op < 2 && !ms && type_name.find("Buffer") == std::string::npos
+                        ? "level's size is "
+                        : "size is ")
+    << (v[9] == 0 && v[10] == 0 ? std::string("(no such level)") : size)
+    << (arrayed ? " (the last is layers)" : "");
+  return m.str();
+}
+
+namespace {
+VkFormat float_format(uint32_t channels, bool half, const char* what) {
+  switch (channels) {
+    case 1:
+      return half ? VK_FORMAT_R16_SFLOAT : VK_FORMAT_R32_SFLOAT;
+    case 2:
+      return half ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
+    case 4:
+      return half ? VK_FORMAT_R16G16B16A16_SFLOAT : VK_FORMAT_R32G32B32A32_SFLOAT;
+    default:
+      throw Error(std::string(what) + ".channels = " + std::to_string(channels) +
+                  ": must be 1, 2 or 4");
+  }
+}
+}  // namespace
 
 // ---- textures --------------------------------------------------------------------------------
 
@@ -577,20 +872,7 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
   if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
     throw Error("FloatTextureDesc: device " + ctx.info().name +
                 " has no cube-map arrays (imageCubeArray)");
-  switch (desc.channels) {
-    case 1:
-      d.format = desc.half ? VK_FORMAT_R16_SFLOAT : VK_FORMAT_R32_SFLOAT;
-      break;
-    case 2:
-      d.format = desc.half ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
-      break;
-    case 4:
-      d.format = desc.half ? VK_FORMAT_R16G16B16A16_SFLOAT : VK_FORMAT_R32G32B32A32_SFLOAT;
-      break;
-    default:
-      throw Error("FloatTextureDesc.channels = " + std::to_string(desc.channels) +
-                  ": must be 1, 2 or 4");
-  }
+  d.format = float_format(desc.channels, desc.half, "FloatTextureDesc");
   d.width = desc.width;
   d.height = desc.height;
   d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
@@ -613,6 +895,74 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
     t->image.upload(std::as_bytes(texels));
   }
   return t;
+}
+
+
+std::shared_ptr<Texture> make_storage_image(const StorageImageDesc& desc,
+                                            std::span<const float> texels) {
+  auto& ctx = shared_context();
+  gpu::ImageDesc d;
+  d.kind = (desc.array || desc.layers > 1) ? gpu::ImageKind::image_2d_array
+                                           : gpu::ImageKind::image_2d;
+  d.format = float_format(desc.channels, desc.half, "StorageImageDesc");
+  if (desc.width == 0 || desc.height == 0 || desc.layers == 0) {
+    throw Error("StorageImageDesc: width, height and layers must be > 0 (got " +
+                std::to_string(desc.width) + "x" + std::to_string(desc.height) + "x" +
+                std::to_string(desc.layers) + ")");
+  }
+  d.width = desc.width;
+  d.height = desc.height;
+  d.layers = desc.layers;
+  d.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_SRC_BIT |
+            VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+  VkFormatProperties fp{};
+  vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), d.format, &fp);
+  if ((fp.optimalTilingFeatures & VK_FORMAT_FEATURE_STORAGE_IMAGE_BIT) == 0 ||
+      (desc.channels == 2 && !ctx.info().storage_image_extended_formats)) {
+    throw Error("StorageImageDesc: device " + ctx.info().name + " has no " +
+                std::to_string(desc.channels) + "-channel " + (desc.half ? "16" : "32") +
+                "-bit float storage images" +
+                (desc.channels == 2 ? " (shaderStorageImageExtendedFormats)" : ""));
+  }
+  const size_t n = size_t(desc.width) * desc.height * desc.layers * desc.channels;
+  if (!texels.empty() && texels.size() != n) {
+    throw Error("make_storage_image: " + std::to_string(texels.size()) + " floats given for " +
+                std::to_string(desc.width) + "x" + std::to_string(desc.height) + "x" +
+                std::to_string(desc.layers) + " texels of " + std::to_string(desc.channels) +
+                " channel(s) (" + std::to_string(n) + " expected)");
+  }
+  auto t = std::make_shared<Texture>();
+  t->image = gpu::Image(ctx, d);
+  t->storage = true;
+  std::vector<float> values(texels.begin(), texels.end());
+  if (values.empty()) values.assign(n, 0.0f);
+  if (desc.half) {
+    std::vector<uint16_t> halves(n);
+    for (size_t i = 0; i < n; ++i) halves[i] = glm::packHalf1x16(values[i]);
+    t->image.upload(std::as_bytes(std::span<const uint16_t>(halves)), VK_IMAGE_LAYOUT_GENERAL);
+  } else {
+    t->image.upload(std::as_bytes(std::span<const float>(values)), VK_IMAGE_LAYOUT_GENERAL);
+  }
+  return t;
+}
+
+std::vector<float> read_storage_image(Texture& image) {
+  if (!image.storage) throw Error("read_storage_image: not a storage image (make_storage_image)");
+  const auto bytes = image.image.download(0);
+  const VkFormat f = image.image.desc().format;
+  const bool half = f == VK_FORMAT_R16_SFLOAT || f == VK_FORMAT_R16G16_SFLOAT ||
+                    f == VK_FORMAT_R16G16B16A16_SFLOAT;
+  std::vector<float> out(bytes.size() / (half ? 2 : 4));
+  if (half) {
+    for (size_t i = 0; i < out.size(); ++i) {
+      uint16_t h = 0;
+      std::memcpy(&h, bytes.data() + 2 * i, 2);
+      out[i] = glm::unpackHalf1x16(h);
+    }
+  } else {
+    std::memcpy(out.data(), bytes.data(), out.size() * 4);
+  }
+  return out;
 }
 
 }  // namespace penumbra::testing

@@ -6,6 +6,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
 #include <glm/gtc/packing.hpp>
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/compare.hpp>
@@ -419,6 +421,223 @@ TEST_F(HarnessTest, HalfFloatUnormDepthAndFloatCubeTextures) {
   for (int f = 0; f < 6; ++f) EXPECT_EQ(at(axes[f] * 3.0f), faces[size_t(f)]) << "face " << f;
 }
 
+// Storage images: every case writes its own texel of an rgba32f image in one dispatch; the image
+// comes back with those values where written and its initial content elsewhere. A layered
+// image takes the layer from z; an r16f image keeps the nearest halves.
+TEST_F(HarnessTest, StorageImagesAreWrittenInPlaceAndReadBack) {
+  StorageImageDesc desc;
+  desc.width = 64;
+  desc.height = 32;
+  const std::vector<float> initial(64 * 32 * 4, -1.0f);
+  auto img = make_storage_image(desc, initial);
+  ShaderFunction<uint32_t(Image2D, glm::ivec2, glm::vec4)> store(kFuncs, "store_texel");
+  store.bind(0, img);
+  std::vector<std::tuple<glm::ivec2, glm::vec4>> cases;
+  for (int y = 0; y < 32; y += 2)
+    for (int x = 0; x < 64; ++x)
+      cases.emplace_back(glm::ivec2(x, y), glm::vec4(float(x), float(y), float(x * y), 0.5f));
+  const auto ids = store.run(cases);
+  for (size_t c = 0; c < cases.size(); ++c) {
+    const auto p = std::get<0>(cases[c]);
+    ASSERT_EQ(ids[c], uint32_t(p.x + 1000 * p.y));
+  }
+  const auto got = read_storage_image(*img);
+  ASSERT_EQ(got.size(), initial.size());
+  for (int y = 0; y < 32; ++y) {
+    for (int x = 0; x < 64; ++x) {
+      const size_t t = (size_t(y) * 64 + size_t(x)) * 4;
+      const glm::vec4 want = y % 2 == 0 ? glm::vec4(float(x), float(y), float(x * y), 0.5f)
+                                        : glm::vec4(-1.0f);
+      for (int k = 0; k < 4; ++k) ASSERT_EQ(got[t + size_t(k)], want[k]) << x << "," << y;
+    }
+  }
+
+  StorageImageDesc layered;
+  layered.width = 4;
+  layered.height = 2;
+  layered.layers = 3;
+  layered.channels = 1;
+  layered.half = true;
+  auto arr = make_storage_image(layered);
+  ShaderFunction<uint32_t(Image2DArray, glm::ivec3, glm::vec4)> store_layer(kFuncs,
+                                                                            "store_layer_texel");
+  store_layer.bind(0, arr);
+  std::vector<std::tuple<glm::ivec3, glm::vec4>> lcases;
+  for (int l = 0; l < 3; ++l) lcases.emplace_back(glm::ivec3(l, 1, l), glm::vec4(0.1f * float(l + 1)));
+  const auto layers = store_layer.run(lcases);
+  EXPECT_EQ(layers, (std::vector<uint32_t>{0, 1, 2}));
+  const auto texels = read_storage_image(*arr);
+  ASSERT_EQ(texels.size(), 4u * 2u * 3u);
+  for (int l = 0; l < 3; ++l) {
+    for (int i = 0; i < 8; ++i) {
+      const bool written = i == 4 + l;  // row 1, column l
+      const float stored = texels[size_t(l) * 8 + size_t(i)];
+      if (!written) {
+        EXPECT_EQ(stored, 0.0f) << "layer " << l << ", texel " << i;
+        continue;
+      }
+      // Vulkan lets a store to a 16-bit float image round to nearest or toward zero (lavapipe
+      // truncates 0.3 to 0.2998): either neighbouring half, nothing else.
+      const float x = 0.1f * float(l + 1);
+      const uint16_t nearest = glm::packHalf1x16(x);
+      const float rte = glm::unpackHalf1x16(nearest);
+      const float rtz = rte > x ? glm::unpackHalf1x16(uint16_t(nearest - 1)) : rte;
+      EXPECT_TRUE(stored == rte || stored == rtz)
+          << "layer " << l << ": " << stored << ", want " << rte << " or " << rtz;
+    }
+  }
+  // A storage image is not a texture, and the other way round.
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2)> fetch(kFuncs, "fetch_texel");
+  fetch.bind(0, img);
+  EXPECT_THROW(fetch(glm::ivec2(0)), Error);
+  store.bind(0, arr);
+  EXPECT_THROW(store(glm::ivec2(0), glm::vec4(0)), Error);
+}
+
+// Reading a format-less image (the only kind a GLSL parameter can be) needs
+// shaderStorageImageReadWithoutFormat: where the device has it, a read-modify-write sees the
+// image's content and leaves the sum; elsewhere building the function fails naming the feature.
+TEST_F(HarnessTest, StorageImageReadsWhereTheDeviceCanElseANamedError) {
+  using Fn = ShaderFunction<glm::vec4(Image2D, glm::ivec2, glm::vec4)>;
+  if (!shared_context().info().storage_read_without_format) {
+    try {
+      Fn add(kFuncs, "add_to_texel");
+      FAIL() << "built a function that reads a format-less image without the device feature";
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), HasSubstr("shaderStorageImageReadWithoutFormat"));
+      EXPECT_THAT(e.what(), HasSubstr(shared_context().info().name));
+    }
+    return;
+  }
+  Fn add(kFuncs, "add_to_texel");
+  StorageImageDesc desc;
+  desc.width = 8;
+  std::vector<float> initial(8 * 4);
+  for (size_t i = 0; i < initial.size(); ++i) initial[i] = float(i);
+  auto img = make_storage_image(desc, initial);
+  add.bind(0, img);
+  std::vector<std::tuple<glm::ivec2, glm::vec4>> cases;
+  for (int x = 0; x < 8; ++x) cases.emplace_back(glm::ivec2(x, 0), glm::vec4(100.0f));
+  const auto old = add.run(cases);
+  const auto now = read_storage_image(*img);
+  for (int x = 0; x < 8; ++x) {
+    for (int k = 0; k < 4; ++k) {
+      EXPECT_EQ(old[size_t(x)][k], initial[size_t(x) * 4 + size_t(k)]);
+      EXPECT_EQ(now[size_t(x) * 4 + size_t(k)], initial[size_t(x) * 4 + size_t(k)] + 100.0f);
+    }
+  }
+}
+
+// A product's own VkSampler is bound in place of the texture's: the same texture read past its
+// edge wraps through its own repeat sampler and gives the border through the caller's.
+TEST_F(HarnessTest, TheCallersOwnSamplerIsBoundInPlaceOfTheTexturesOwn) {
+  auto& ctx = shared_context();
+  FloatTextureDesc desc;
+  desc.width = 4;
+  desc.sampler.address = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+  const std::vector<float> texels{1.0f, 2.0f, 3.0f, 4.0f};
+  auto tex = make_float_texture(desc, texels);
+
+  VkSamplerCreateInfo info{VK_STRUCTURE_TYPE_SAMPLER_CREATE_INFO};
+  info.magFilter = info.minFilter = VK_FILTER_NEAREST;
+  info.mipmapMode = VK_SAMPLER_MIPMAP_MODE_NEAREST;
+  info.addressModeU = info.addressModeV = info.addressModeW =
+      VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_BORDER;
+  info.borderColor = VK_BORDER_COLOR_FLOAT_TRANSPARENT_BLACK;
+  info.maxLod = VK_LOD_CLAMP_NONE;
+  VkSampler product = VK_NULL_HANDLE;
+  ASSERT_EQ(vkCreateSampler(ctx.device(), &info, nullptr, &product), VK_SUCCESS);
+
+  ShaderFunction<float(Sampler2D, glm::vec2)> read(kFuncs, "raw_depth");
+  const glm::vec2 past_edge(1.125f, 0.5f);  // texel 4.5: wraps to texel 0
+  read.bind(0, tex);
+  EXPECT_EQ(read(past_edge), 1.0f);
+  EXPECT_EQ(read(glm::vec2(0.625f, 0.5f)), 3.0f);
+  read.bind(0, tex, ExternalSampler{product, false});
+  EXPECT_EQ(read(past_edge), 0.0f);
+  EXPECT_EQ(read(glm::vec2(0.625f, 0.5f)), 3.0f);
+  // Said to compare: refused for a plain sampler2D, naming whose sampler it is.
+  read.bind(0, tex, ExternalSampler{product, true});
+  try {
+    read(past_edge);
+    ADD_FAILURE() << "a compare sampler was bound to a sampler2D";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("the caller's compare sampler"));
+  }
+  vkDestroySampler(ctx.device(), product, nullptr);
+}
+
+// The bounds checks: a texel fetch, a fetch with an offset, a fetch of a level that does not
+// exist and an image store outside the image each fail the run with OutOfBoundsError naming
+// the case, the coordinate and the size; in-bounds runs pass; check_bounds = false lets the
+// undefined fetch through (the device's answer comes back).
+TEST_F(HarnessTest, OutOfBoundsAccessesFailTheRunNamingCaseCoordinateAndSize) {
+  FloatTextureDesc desc;
+  desc.width = 4;
+  desc.height = 2;
+  desc.channels = 4;
+  std::vector<float> texels(4 * 2 * 4, 7.0f);
+  auto tex = make_float_texture(desc, texels);
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2)> fetch(kFuncs, "fetch_texel");
+  fetch.bind(0, tex);
+  std::vector<std::tuple<glm::ivec2>> inside;
+  for (int y = 0; y < 2; ++y)
+    for (int x = 0; x < 4; ++x) inside.emplace_back(glm::ivec2(x, y));
+  EXPECT_NO_THROW(fetch.run(inside));
+  auto expect_oob = [](auto&& run, std::vector<std::string> parts) {
+    try {
+      run();
+      ADD_FAILURE() << "no OutOfBoundsError";
+    } catch (const OutOfBoundsError& e) {
+      for (const auto& p : parts) EXPECT_THAT(e.what(), HasSubstr(p));
+    }
+  };
+  std::vector<std::tuple<glm::ivec2>> one_out = inside;
+  one_out[5] = {glm::ivec2(4, 1)};
+  expect_oob([&] { fetch.run(one_out); },
+             {"1 access(es) outside an image", "case 5: texelFetch of a sampler2D at ivec2(4, 1)",
+              "level 0 of 1", "size is 4x2"});
+  std::vector<std::tuple<glm::ivec2>> negative{{glm::ivec2(0, -1)}, {glm::ivec2(0, -1)}};
+  expect_oob([&] { fetch.run(negative); }, {"2 access(es)", "at ivec2(0, -1)"});
+
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2, int)> level(kFuncs, "fetch_level");
+  level.bind(0, tex);
+  EXPECT_NO_THROW(level(glm::ivec2(3, 1), 0));
+  expect_oob([&] { level(glm::ivec2(0, 0), 1); }, {"level 1 of 1", "(no such level)"});
+
+  FloatTextureDesc arr_desc;
+  arr_desc.width = 4;
+  arr_desc.height = 2;
+  arr_desc.layers = 2;
+  auto arr = make_float_texture(arr_desc, std::vector<float>(16, 1.0f));
+  ShaderFunction<glm::vec4(Sampler2DArray, glm::ivec3)> offset(kFuncs, "fetch_layer_offset");
+  offset.bind(0, arr);
+  EXPECT_NO_THROW(offset(glm::ivec3(2, 1, 1)));
+  expect_oob([&] { offset(glm::ivec3(3, 0, 0)); },
+             {"texelFetchOffset of a sampler2DArray at ivec3(4, 0, 0) (coordinate plus offset)",
+              "size is 4x2x2 (the last is layers)"});
+  expect_oob([&] { offset(glm::ivec3(0, 0, 2)); }, {"at ivec3(1, 0, 2)"});
+
+  StorageImageDesc sdesc;
+  sdesc.width = 3;
+  sdesc.height = 3;
+  auto img = make_storage_image(sdesc);
+  ShaderFunction<uint32_t(Image2D, glm::ivec2, glm::vec4)> store(kFuncs, "store_texel");
+  store.bind(0, img);
+  EXPECT_NO_THROW(store(glm::ivec2(2, 2), glm::vec4(1)));
+  expect_oob([&] { store(glm::ivec2(2, 3), glm::vec4(1)); },
+             {"imageStore of a image2D at ivec2(2, 3)", "size is 3x3"});
+
+  FunctionOptions unchecked;
+  unchecked.check_bounds = false;
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2)> raw(kFuncs, "fetch_texel", unchecked);
+  raw.bind(0, tex);
+  EXPECT_NO_THROW(raw.run(one_out));
+  EXPECT_EQ(raw.source().find("penumbra_checked"), std::string::npos);
+  EXPECT_NE(fetch.source().find("#define texelFetch penumbra_checked_texelFetch"),
+            std::string::npos);
+}
+
 TEST_F(HarnessTest, ResourceErrorsNameTheParameter) {
   ShaderFunction<float(Sampler2DShadow, glm::vec3)> tap(kFuncs, "compare_tap");
   try {
@@ -438,6 +657,42 @@ TEST_F(HarnessTest, ResourceErrorsNameTheParameter) {
     EXPECT_THAT(e.what(), HasSubstr("non-compare sampler"));
   }
   EXPECT_THROW(tap.bind(3, nullptr), Error);
+}
+
+// The robust-access mode (PENUMBRA_ROBUST_ACCESS=1: VK_EXT_robustness2 on the shared device).
+// CTest runs this suite twice: as part of the binary (the mode off, as asked) and again with the
+// variable set, where an unchecked out-of-bounds fetch must read zeros on every device.
+class RobustAccess : public GpuTest {};
+
+TEST_F(RobustAccess, UncheckedOutOfBoundsFetchesReadZerosWhenOn) {
+  const char* env = std::getenv("PENUMBRA_ROBUST_ACCESS");
+  const bool asked = env != nullptr && std::string(env) == "1";
+  const auto& info = shared_context().info();
+  ASSERT_EQ(info.robust_access, asked);
+  EXPECT_THAT(shared_context().report(), HasSubstr(asked ? "robustness:  on" : "robustness:  off"));
+  FloatTextureDesc desc;
+  desc.width = 4;
+  desc.height = 2;
+  desc.channels = 4;
+  auto tex = make_float_texture(desc, std::vector<float>(4 * 2 * 4, 7.0f));
+  FunctionOptions unchecked;
+  unchecked.check_bounds = false;
+  ShaderFunction<glm::vec4(Sampler2D, glm::ivec2)> fetch(kFuncs, "fetch_texel", unchecked);
+  fetch.bind(0, tex);
+  const std::vector<std::tuple<glm::ivec2>> cases{
+      {glm::ivec2(1, 1)}, {glm::ivec2(4, 1)}, {glm::ivec2(-1, 0)}, {glm::ivec2(0, 100000)}};
+  const auto got = fetch.run(cases);
+  EXPECT_EQ(got[0], glm::vec4(7.0f));
+  if (!asked) {
+    std::printf("[robust-access] off\n");
+    return;
+  }
+  for (size_t c = 1; c < cases.size(); ++c) {
+    // robustImageAccess2: zero colour; alpha 0, or 1 for a format without alpha.
+    EXPECT_EQ(glm::vec3(got[c]), glm::vec3(0.0f)) << "case " << c;
+    EXPECT_TRUE(got[c].w == 0.0f || got[c].w == 1.0f) << "case " << c;
+  }
+  std::printf("[robust-access] on: checked\n");
 }
 
 }  // namespace

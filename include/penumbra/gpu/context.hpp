@@ -24,6 +24,11 @@ struct ContextOptions {
   // VK_KHR_swapchain). Context creation fails naming them when one is missing.
   std::vector<std::string> instance_extensions;
   std::vector<std::string> device_extensions;
+  // Robust access: VK_EXT_robustness2's robustBufferAccess2 and robustImageAccess2 (with
+  // robustBufferAccess), so that out-of-bounds buffer and image accesses read zeros and drop
+  // writes the same way on every device. Context creation fails naming what the device lacks.
+  // Unset: on when PENUMBRA_ROBUST_ACCESS=1.
+  std::optional<bool> robust_access;
 };
 
 struct DeviceInfo {
@@ -44,6 +49,10 @@ struct DeviceInfo {
   bool linear_filter_d32 = false;  // VK_FORMAT_D32_SFLOAT supports linear filtering
   // shaderStorageImageExtendedFormats (rg16f, rg32f storage images; enabled when supported)
   bool storage_image_extended_formats = false;
+  // shaderStorageImageReadWithoutFormat: imageLoad of a format-less image (enabled when supported)
+  bool storage_read_without_format = false;
+  bool robustness2 = false;    // VK_EXT_robustness2 with robustBufferAccess2 and robustImageAccess2
+  bool robust_access = false;  // ... and this context enabled them (ContextOptions::robust_access)
 };
 
 std::string to_string(VkPhysicalDeviceType type);

@@ -53,7 +53,9 @@ enum class ResourceKind {
   sampler2d_array,
   sampler_cube_array_shadow,
   sampler_cube_array,
-  sampler_cube
+  sampler_cube,
+  image2d,       // a storage image (make_storage_image), read and written in place
+  image2d_array
 };
 const char* glsl_name(ResourceKind kind);
 
@@ -83,11 +85,39 @@ struct Sampler2DArray {
   static constexpr ResourceKind kind = ResourceKind::sampler2d_array;
 };
 
-// An image with its sampler, bound to a resource parameter.
+// Storage images: the GLSL function takes `image2D` / `image2DArray` (GLSL allows no format
+// qualifier on a parameter, so the wrapper declares them format-less). A function that only
+// writes runs on every device; one that reads (imageLoad) needs the device's
+// shaderStorageImageReadWithoutFormat, and building it elsewhere fails naming that feature.
+struct Image2D {
+  static constexpr ResourceKind kind = ResourceKind::image2d;
+};
+struct Image2DArray {
+  static constexpr ResourceKind kind = ResourceKind::image2d_array;
+};
+
+// An image with its sampler, bound to a resource parameter. A storage image (storage = true)
+// has no sampler and stays in VK_IMAGE_LAYOUT_GENERAL.
 struct Texture {
   gpu::Image image;
   gpu::Sampler sampler;
   bool depth = false;
+  bool storage = false;
+};
+
+// A sampler the caller owns and keeps alive (a product's own VkSampler, created on
+// testing::shared_context().device()), bound in place of a texture's own sampler. Vulkan cannot
+// be asked how a sampler was made, so `compare` says whether it was created with compareEnable:
+// the *Shadow kinds need one that compares, the others one that does not.
+struct ExternalSampler {
+  VkSampler handle = VK_NULL_HANDLE;
+  bool compare = false;
+};
+
+// What the i-th resource parameter is bound to.
+struct ResourceBinding {
+  std::shared_ptr<Texture> texture;
+  ExternalSampler sampler;  // VK_NULL_HANDLE: the texture's own
 };
 
 // A depth texture (layers == 1: 2D; > 1 or array = true: 2D array; cube = true: 6 faces; cube
@@ -127,6 +157,29 @@ struct FloatTextureDesc {
 std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
                                             std::span<const float> texels);
 
+// A storage image for Image2D (layers == 1 and !array) or Image2DArray parameters: R / RG / RGBA
+// in 32-bit float, or 16-bit with half = true. `texels` (layer-major, row-major, `channels` per
+// texel) is the initial content; empty means zeros. A run writes into it in place; read it back
+// with read_storage_image. Needs the format's STORAGE_IMAGE feature (rg formats:
+// shaderStorageImageExtendedFormats).
+struct StorageImageDesc {
+  uint32_t width = 1, height = 1, layers = 1, channels = 4;
+  bool array = false;
+  bool half = false;
+};
+std::shared_ptr<Texture> make_storage_image(const StorageImageDesc& desc,
+                                            std::span<const float> texels = {});
+// The current content of a storage image, as floats (halves widened), layer-major, row-major.
+std::vector<float> read_storage_image(Texture& image);
+
+// Thrown by run() when a case fetched or wrote a texel outside its image (FunctionOptions::
+// check_bounds): the message names how many cases did, and one of them with its coordinate and
+// the image's size.
+class OutOfBoundsError : public Error {
+ public:
+  using Error::Error;
+};
+
 struct SpecConstant {
   uint32_t id;
   uint32_t bits;  // the 32-bit value (use spec_constant() to build from int/float/bool)
@@ -156,6 +209,12 @@ struct FunctionOptions {
   // shader::CompileOptions::include_once: files without include guards that share helpers can be
   // tested together (each file is included once per wrapper).
   bool include_once = false;
+  // Out-of-bounds detection: texelFetch, texelFetchOffset, imageLoad and imageStore in the tested
+  // code go through checked versions (macros defined before the tested file is included) that
+  // compare the coordinate, layer and level with the image's size; run() throws OutOfBoundsError
+  // when any case went outside. Such an access is undefined in Vulkan (lavapipe returns 0, the
+  // validation layer does not look), so it fails the test instead of passing by luck.
+  bool check_bounds = true;
   uint32_t workgroup_size = 64;
 };
 
@@ -196,13 +255,15 @@ class FunctionEngine {
 
   // Runs `count` cases (inputs: count · input_stride bytes) and fills outputs (count ·
   // output_stride bytes). resources[i] binds the i-th resource parameter.
+  // Throws OutOfBoundsError when bounds are checked and a case went outside an image.
   void run(std::span<const std::byte> inputs, size_t count, std::span<std::byte> outputs,
-           const std::vector<std::shared_ptr<Texture>>& resources);
+           const std::vector<ResourceBinding>& resources);
 
   struct Impl;
 
  private:
   FunctionEngine() = default;
+  std::string describe_out_of_bounds(const std::vector<int32_t>& report) const;
   std::filesystem::path file_;
   std::string signature_;
   std::vector<std::string> notes_;
@@ -212,6 +273,8 @@ class FunctionEngine {
   std::vector<std::shared_ptr<const TypeDesc>> input_types_, output_types_;
   std::vector<ResourceKind> resource_kinds_;
   std::vector<size_t> resource_params_;  // parameter index of each resource
+  bool check_bounds_ = false;            // the wrapper carries the bounds checks
+  std::vector<std::string> bounds_types_;  // the GLSL type of each checked overload
   std::unique_ptr<Impl> impl_;
 };
 
@@ -308,12 +371,17 @@ class ShaderFunction<R(P...)> {
   // Binds the texture of the `resource_index`-th resource parameter (0 = the first resource
   // parameter of the signature).
   ShaderFunction& bind(size_t resource_index, std::shared_ptr<Texture> texture) {
+    return bind(resource_index, std::move(texture), ExternalSampler{});
+  }
+  // The same, sampled through the caller's own sampler instead of the texture's.
+  ShaderFunction& bind(size_t resource_index, std::shared_ptr<Texture> texture,
+                       ExternalSampler sampler) {
     if (resource_index >= resources_.size()) {
       throw Error("ShaderFunction::bind: resource index " + std::to_string(resource_index) +
                   " out of range; the signature has " + std::to_string(resources_.size()) +
                   " resource parameter(s)");
     }
-    resources_[resource_index] = std::move(texture);
+    resources_[resource_index] = ResourceBinding{std::move(texture), sampler};
     return *this;
   }
 
@@ -372,7 +440,7 @@ class ShaderFunction<R(P...)> {
 
  private:
   std::shared_ptr<FunctionEngine> engine_;
-  std::vector<std::shared_ptr<Texture>> resources_;
+  std::vector<ResourceBinding> resources_;
   std::vector<std::byte> input_bytes_, output_bytes_;
 };
 

@@ -77,4 +77,30 @@ float pcf3x3(sampler2DShadow map, vec2 uv, float ref, vec2 texel) {
   return sum / 9.0;
 }
 
+
+// Storage images: written (every device) and read-modify-written (devices that can read a
+// format-less image); the layer of an array is the coordinate's z.
+uint store_texel(image2D img, ivec2 p, vec4 v) {
+  imageStore(img, p, v);
+  return uint(p.x + 1000 * p.y);
+}
+uint store_layer_texel(image2DArray img, ivec3 p, vec4 v) {
+  imageStore(img, p, v);
+  return uint(p.z);
+}
+vec4 add_to_texel(image2D img, ivec2 p, vec4 v) {
+  vec4 old = imageLoad(img, p);
+  imageStore(img, p, old + v);
+  return old;
+}
+
+// Out-of-bounds probes: an array fetch with an offset, and a fetch at a chosen level.
+vec4 fetch_layer_offset(sampler2DArray map, ivec3 p) { return texelFetchOffset(map, p, 0, ivec2(1, 0)); }
+vec4 fetch_level(sampler2D map, ivec2 p, int level) { return texelFetch(map, p, level); }
+
+// Code the macros must leave compiling: texelFetch of types no parameter here binds.
+layout(set = 1, binding = 0) uniform usampler2D harness_ids;
+layout(set = 1, binding = 1) uniform isamplerBuffer harness_list;
+uint harness_id_at(ivec2 p) { return texelFetch(harness_ids, p, 0).r + uint(texelFetch(harness_list, p.x).r); }
+
 #endif
