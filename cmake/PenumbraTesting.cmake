@@ -10,25 +10,33 @@ function(penumbra_discover_suites target)
   cmake_parse_arguments(D "FAIL_ON_SKIP" "PREFIX;TIMEOUT" "LABELS;ENVIRONMENT" ${ARGN})
   set(out "${CMAKE_CURRENT_BINARY_DIR}/${target}_suites.cmake")
   set(include_file "${CMAKE_CURRENT_BINARY_DIR}/${target}_suites_include.cmake")
-  string(REPLACE ";" "@@" labels "${D_LABELS}")
-  string(REPLACE ";" "@@" environment "${D_ENVIRONMENT}")
-  if(NOT D_TIMEOUT)
-    set(D_TIMEOUT 0)
-  endif()
-  set(fail_on_skip OFF)
-  if(D_FAIL_ON_SKIP)
-    set(fail_on_skip ON)
-  endif()
   add_custom_command(TARGET ${target} POST_BUILD
     COMMAND "${CMAKE_COMMAND}" "-DEXE=$<TARGET_FILE:${target}>" "-DOUT=${out}"
-            "-DPREFIX=${D_PREFIX}" "-DLABELS=${labels}" "-DENVIRONMENT=${environment}"
-            "-DTIMEOUT=${D_TIMEOUT}" "-DFAIL_ON_SKIP=${fail_on_skip}"
             "-DWORKING_DIRECTORY=${CMAKE_CURRENT_BINARY_DIR}" -P "${_PENUMBRA_DISCOVER_SCRIPT}"
     BYPRODUCTS "${out}"
     VERBATIM)
+  # The properties are this configuration's: written now, applied to whatever suites the last
+  # link listed.
+  set(props "WORKING_DIRECTORY [==[${CMAKE_CURRENT_BINARY_DIR}]==]")
+  if(D_FAIL_ON_SKIP)
+    string(APPEND props " FAIL_REGULAR_EXPRESSION [==[\\[  SKIPPED \\]]==]")
+  endif()
+  if(D_LABELS)
+    string(APPEND props " LABELS [==[${D_LABELS}]==]")
+  endif()
+  if(D_ENVIRONMENT)
+    string(APPEND props " ENVIRONMENT [==[${D_ENVIRONMENT}]==]")
+  endif()
+  if(D_TIMEOUT AND NOT D_TIMEOUT EQUAL 0)
+    string(APPEND props " TIMEOUT ${D_TIMEOUT}")
+  endif()
   file(WRITE "${include_file}"
     "if(EXISTS \"${out}\")\n"
     "  include(\"${out}\")\n"
+    "  foreach(suite IN LISTS PENUMBRA_SUITES)\n"
+    "    add_test(\"${D_PREFIX}\${suite}\" \"\${PENUMBRA_SUITES_EXE}\" \"--gtest_filter=\${suite}.*\")\n"
+    "    set_tests_properties(\"${D_PREFIX}\${suite}\" PROPERTIES ${props})\n"
+    "  endforeach()\n"
     "else()\n"
     "  add_test([==[${D_PREFIX}${target}_NOT_BUILT]==] [==[${target}_NOT_BUILT]==])\n"
     "endif()\n")

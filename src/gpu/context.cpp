@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
+#include <fstream>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/context.hpp>
@@ -38,6 +40,10 @@ VKAPI_ATTR VkBool32 VKAPI_CALL debug_callback(VkDebugUtilsMessageSeverityFlagBit
                                                                                 : Severity::verbose;
   m.id = data->pMessageIdName != nullptr ? data->pMessageIdName : "";
   m.message = data->pMessage != nullptr ? data->pMessage : "";
+  if (m.id == "UNASSIGNED-DEBUG-PRINTF") {  // a shader's debugPrintfEXT, not a finding
+    sink->push_printf(std::move(m.message));
+    return VK_FALSE;
+  }
   if (m.severity == Severity::warning || m.severity == Severity::error) {
     if (std::getenv("PENUMBRA_VALIDATION_QUIET") == nullptr) {
       std::fprintf(stderr, "%s\n", to_string(m).c_str());
@@ -241,8 +247,55 @@ Context::Context(const ContextOptions& options) {
   messenger_info.pfnUserCallback = debug_callback;
   messenger_info.pUserData = &sink_;
 
+  // Debug printf: the layer instruments shaders that print and reports each message (at info
+  // severity) with the invocation that printed it (verbose).
+  if (validation_) {
+    if (options.debug_printf.has_value()) {
+      debug_printf_ = *options.debug_printf;
+    } else if (const char* env = std::getenv("PENUMBRA_DEBUG_PRINTF")) {
+      debug_printf_ = std::string(env) == "1";
+    }
+  }
+  const VkValidationFeatureEnableEXT printf_feature = VK_VALIDATION_FEATURE_ENABLE_DEBUG_PRINTF_EXT;
+  VkValidationFeaturesEXT validation_features{VK_STRUCTURE_TYPE_VALIDATION_FEATURES_EXT};
+  if (debug_printf_) {
+    messenger_info.messageSeverity |= VK_DEBUG_UTILS_MESSAGE_SEVERITY_INFO_BIT_EXT;
+    validation_features.enabledValidationFeatureCount = 1;
+    validation_features.pEnabledValidationFeatures = &printf_feature;
+    validation_features.pNext = &messenger_info;
+  }
+
+  // Verbose printf (each message names its invocation) is a layer setting, read from a settings
+  // file at vkCreateInstance: a private one, unless the user points the layer at their own.
+  std::filesystem::path settings_dir;
+  if (debug_printf_ && std::getenv("VK_LAYER_SETTINGS_PATH") == nullptr) {
+    std::string tmpl = (std::filesystem::temp_directory_path() / "penumbra-layer.XXXXXX").string();
+    if (mkdtemp(tmpl.data()) != nullptr) {
+      settings_dir = tmpl;
+      std::ofstream(settings_dir / "vk_layer_settings.txt")
+          << "khronos_validation.printf_verbose = true\n"
+          // Room for ~25,000 short lines per dispatch (the default, 1 KiB, holds ~25); the layer
+          // says when a dispatch printed more.
+          << "khronos_validation.printf_buffer_size = 1048576\n";
+      setenv("VK_LAYER_SETTINGS_PATH", settings_dir.c_str(), 1);
+      debug_printf_verbose_ = true;
+    }
+  }
+  struct RemoveSettings {
+    const std::filesystem::path& dir;
+    ~RemoveSettings() {
+      if (dir.empty()) return;
+      unsetenv("VK_LAYER_SETTINGS_PATH");
+      std::error_code ec;
+      std::filesystem::remove_all(dir, ec);
+    }
+  } remove_settings{settings_dir};
+
   VkInstanceCreateInfo ici{VK_STRUCTURE_TYPE_INSTANCE_CREATE_INFO};
-  ici.pNext = validation_ ? &messenger_info : nullptr;  // also catches create/destroy messages
+  // The messenger also catches create/destroy messages.
+  ici.pNext = debug_printf_ ? static_cast<const void*>(&validation_features)
+              : validation_ ? static_cast<const void*>(&messenger_info)
+                            : nullptr;
   ici.pApplicationInfo = &app;
   ici.enabledLayerCount = static_cast<uint32_t>(layers.size());
   ici.ppEnabledLayerNames = layers.data();

@@ -15,6 +15,18 @@ std::vector<ValidationMessage> ValidationSink::take() {
   return out;
 }
 
+void ValidationSink::push_printf(std::string message) {
+  std::lock_guard lock(mutex_);
+  printf_.push_back(std::move(message));
+}
+
+std::vector<std::string> ValidationSink::take_printf() {
+  std::lock_guard lock(mutex_);
+  std::vector<std::string> out;
+  out.swap(printf_);
+  return out;
+}
+
 size_t ValidationSink::count() const {
   std::lock_guard lock(mutex_);
   return messages_.size();

@@ -227,6 +227,15 @@ std::string ErrorHistogram::format() const {
 // ---------------------------------------------------------------------------------------------
 // BatchComparer
 
+namespace {
+thread_local std::vector<std::vector<std::string>> g_last_run_printf;
+}  // namespace
+
+void set_last_run_printf(const std::vector<std::vector<std::string>>& per_case) {
+  g_last_run_printf = per_case;
+}
+const std::vector<std::vector<std::string>>& last_run_printf() { return g_last_run_printf; }
+
 namespace detail {
 
 struct BatchComparer::State {
@@ -244,6 +253,9 @@ struct BatchComparer::State {
   std::vector<Failure> current;     // failing components of the current case, capped
   std::size_t current_failing = 0;  // all failing components of the current case
   std::string cases_text;           // the reported failing cases
+  // Where each reported case's printf lines go in cases_text (inserted by finish() when the last
+  // run printed and had as many cases as were compared).
+  std::vector<std::pair<std::size_t, std::size_t>> printf_at;  // (offset, case)
 
   bool have_worst = false;
   bool worst_failing = false;
@@ -331,6 +343,7 @@ void BatchComparer::end_case(std::size_t case_index) {
       s.cases_text += "  ... and " + std::to_string(s.current_failing - s.current.size()) +
                       " more failing components in this case\n";
     }
+    s.printf_at.emplace_back(s.cases_text.size(), case_index);
   }
   s.current.clear();
   s.current_failing = 0;
@@ -342,6 +355,19 @@ ComparisonResult BatchComparer::finish() {
   r.passed = r.failing_components == 0;
   if (r.cases > 0) r.worst_inputs = s.inputs_of(r.worst_case);
 
+  const auto& printed = last_run_printf();
+  if (!r.passed && printed.size() == r.cases) {
+    for (auto it = s.printf_at.rbegin(); it != s.printf_at.rend(); ++it) {
+      const auto& lines = printed[it->second];
+      std::string text;
+      constexpr std::size_t kMaxLines = 16;
+      for (std::size_t k = 0; k < lines.size() && k < kMaxLines; ++k)
+        text += "  printf: " + lines[k] + '\n';
+      if (lines.size() > kMaxLines)
+        text += "  printf: ... and " + std::to_string(lines.size() - kMaxLines) + " more lines\n";
+      s.cases_text.insert(it->first, text);
+    }
+  }
   std::string& out = r.report;
   if (r.passed) {
     out += "passed: " + std::to_string(r.cases) + " cases (" + std::to_string(r.components) +

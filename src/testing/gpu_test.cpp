@@ -37,6 +37,10 @@ gpu::Context& shared_context() {
     // without the layer's overhead). CTest sets PENUMBRA_VALIDATION=1 for every test.
     const char* env = std::getenv("PENUMBRA_VALIDATION");
     options.validation = !(env != nullptr && std::string(env) == "0");
+    // Debug printf on with validation, so that a tested function's debugPrintfEXT lines reach
+    // ShaderFunction::printed() and failure reports; PENUMBRA_DEBUG_PRINTF=0 turns it off.
+    const char* printf_env = std::getenv("PENUMBRA_DEBUG_PRINTF");
+    options.debug_printf = !(printf_env != nullptr && std::string(printf_env) == "0");
     slot = std::make_unique<gpu::Context>(options);
     std::fprintf(stderr, "%s", slot->report().c_str());
   }

@@ -257,6 +257,51 @@ bool uses_capability(const std::vector<uint32_t>& spirv, uint32_t capability) {
   return false;
 }
 
+// Does the module import NonSemantic.DebugPrintf (OpExtInstImport, opcode 11)?
+bool imports_debug_printf(const std::vector<uint32_t>& spirv) {
+  for (size_t i = 5; i < spirv.size();) {
+    const uint32_t words = spirv[i] >> 16, opcode = spirv[i] & 0xffffu;
+    if (words == 0 || i + words > spirv.size()) break;
+    if (opcode == 11 && words > 2) {
+      const char* name = reinterpret_cast<const char*>(&spirv[i + 2]);
+      const size_t max = (words - 2) * 4;
+      if (std::string(name, strnlen(name, max)).rfind("NonSemantic.DebugPrintf", 0) == 0)
+        return true;
+    }
+    i += words;
+  }
+  return false;
+}
+
+// A verbose debug printf message: which dispatch and invocation printed, and what. Returns false
+// for a message without the invocation (the layer not in verbose mode).
+bool parse_printf(const std::string& message, uint64_t& dispatch, uint64_t& invocation,
+                  std::string& text) {
+  const std::string dispatch_key = "Compute Dispatch Index ";
+  const std::string id_key = "Global invocation ID (x, y, z) = (";
+  const size_t d = message.find(dispatch_key);
+  const size_t g = message.find(id_key);
+  if (d == std::string::npos || g == std::string::npos) return false;
+  dispatch = std::strtoull(message.c_str() + d + dispatch_key.size(), nullptr, 10);
+  invocation = std::strtoull(message.c_str() + g + id_key.size(), nullptr, 10);
+  const size_t close = message.find(')', g + id_key.size());
+  if (close == std::string::npos) return false;
+  text = message.substr(std::min(message.size(), close + 2));
+  for (const char* tail : {" Unable to find SPIR-V OpLine", "\nUnable to find SPIR-V OpLine"}) {
+    const size_t t = text.rfind(tail);
+    if (t != std::string::npos) text.resize(t);
+  }
+  while (!text.empty() && (text.back() == '\n' || text.back() == ' ')) text.pop_back();
+  return true;
+}
+
+// The text of a non-verbose message: what follows the layer's header.
+std::string printf_text(const std::string& message) {
+  const size_t id = message.find("MessageID = ");
+  const size_t bar = id == std::string::npos ? std::string::npos : message.find("| ", id);
+  return bar == std::string::npos ? message : message.substr(bar + 2);
+}
+
 // ---- bounds checks -----------------------------------------------------------------------------
 
 // The overloads the checked texel fetches cover: every GLSL type texelFetch takes, so that a
@@ -397,6 +442,7 @@ struct FunctionEngine::Impl {
   std::unique_ptr<gpu::CommandRecorder> recorder;
   gpu::Buffer in, out;
   gpu::Buffer bounds;  // PenumbraBounds (check_bounds)
+  bool said_no_printf = false;
   uint32_t workgroup = 64;
   std::mutex mutex;
 };
@@ -624,6 +670,7 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
 
   // ---- what the SPIR-V needs of the device ----
   auto& ctx = shared_context();
+  e->prints_ = imports_debug_printf(compiled.spirv);
   if (uses_capability(compiled.spirv, kCapabilityStorageImageReadWithoutFormat) &&
       !ctx.info().storage_read_without_format) {
     throw Error("ShaderFunction " + e->signature_ + " from " + file.string() +
@@ -662,7 +709,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
 
 void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
                          std::span<std::byte> outputs,
-                         const std::vector<ResourceBinding>& resources) {
+                         const std::vector<ResourceBinding>& resources,
+                         std::vector<std::vector<std::string>>* printed) {
   std::lock_guard lock(impl_->mutex);
   auto& ctx = impl_->ctx;
   if (inputs.size() < count * input_stride_ || outputs.size() < count * output_stride_) {
@@ -740,8 +788,35 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
     vkCmdPushConstants(cmd, impl_->layout->handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, push);
     vkCmdDispatch(cmd, (push[0] + impl_->workgroup - 1) / impl_->workgroup, 1, 1);
   }
+  const bool capture = prints_ && ctx.debug_printf_enabled();
+  if (capture) (void)ctx.validation_sink().take_printf();  // not this run's
   impl_->recorder->submit_and_wait();
   impl_->out.read(outputs.first(count * output_stride_));
+  if (printed != nullptr) {
+    printed->clear();
+    if (prints_) printed->resize(count);
+  }
+  if (prints_ && !capture && !impl_->said_no_printf) {
+    impl_->said_no_printf = true;
+    std::fprintf(stderr,
+                 "[penumbra] ShaderFunction %s prints (debugPrintfEXT), but the device was made "
+                 "without debug printf: run with PENUMBRA_DEBUG_PRINTF=1 and the validation layer "
+                 "on to see each case's lines\n",
+                 signature_.c_str());
+  }
+  if (capture) {
+    for (const std::string& m : ctx.validation_sink().take_printf()) {
+      uint64_t dispatch = 0, invocation = 0;
+      std::string text;
+      if (parse_printf(m, dispatch, invocation, text) &&
+          dispatch * per_dispatch + invocation < count) {
+        if (printed != nullptr) (*printed)[dispatch * per_dispatch + invocation].push_back(text);
+      } else {
+        std::fprintf(stderr, "[penumbra] ShaderFunction %s printed (case unknown): %s\n",
+                     signature_.c_str(), printf_text(m).c_str());
+      }
+    }
+  }
   if (check_bounds_) {
     const auto v = impl_->bounds.read_vector<int32_t>(kBoundsBytes / 4);
     if (v[0] != 0) throw OutOfBoundsError(describe_out_of_bounds(v));

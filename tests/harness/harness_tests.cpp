@@ -659,6 +659,44 @@ TEST_F(HarnessTest, ResourceErrorsNameTheParameter) {
   EXPECT_THROW(tap.bind(3, nullptr), Error);
 }
 
+// Debug printf: each case's debugPrintfEXT lines come back per case and in order, and a failing
+// comparison lists the reported cases' lines. The shared test device has debug printf on
+// whenever validation is (PENUMBRA_DEBUG_PRINTF=0 turns it off).
+TEST_F(HarnessTest, DebugPrintfLinesComeBackPerCaseAndInTheFailureReport) {
+  ASSERT_TRUE(shared_context().debug_printf_enabled());
+  ASSERT_TRUE(shared_context().debug_printf_verbose());
+  ShaderFunction<float(float)> f(kFuncs, "print_and_square");
+  EXPECT_TRUE(f.engine().prints());
+  std::vector<std::tuple<float>> cases;
+  for (int i = 0; i < 300; ++i) cases.emplace_back(i % 7 == 3 ? -float(i) : float(i));
+  const auto got = f.run(cases);
+  ASSERT_EQ(f.printed().size(), cases.size());
+  std::vector<float> want;
+  char line[64];
+  for (size_t c = 0; c < cases.size(); ++c) {
+    const float x = std::get<0>(cases[c]);
+    want.push_back(x * x);
+    std::vector<std::string> lines;
+    std::snprintf(line, sizeof line, "x = %f", double(x));
+    lines.emplace_back(line);
+    if (x < 0) {
+      std::snprintf(line, sizeof line, "negative: %f", double(x));
+      lines.emplace_back(line);
+    }
+    ASSERT_EQ(f.printed()[c], lines) << "case " << c;
+  }
+  want[10] += 1.0f;  // case 10: x = -10, which printed two lines
+  EXPECT_NONFATAL_FAILURE(PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::exact()),
+                          "case 10\n  value: expected 101");
+  EXPECT_NONFATAL_FAILURE(PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::exact()),
+                          "  printf: x = -10.000000\n  printf: negative: -10.000000\n");
+  // A function that does not print leaves nothing for the next report.
+  ShaderFunction<float(float, float, float)> quiet(kFuncs, "add_mul");
+  (void)quiet(1.0f, 2.0f, 3.0f);
+  EXPECT_TRUE(quiet.printed().empty());
+  EXPECT_TRUE(last_run_printf().empty());
+}
+
 // The robust-access mode (PENUMBRA_ROBUST_ACCESS=1: VK_EXT_robustness2 on the shared device).
 // CTest runs this suite twice: as part of the binary (the mode off, as asked) and again with the
 // variable set, where an unchecked out-of-bounds fetch must read zeros on every device.

@@ -29,6 +29,11 @@ struct ContextOptions {
   // writes the same way on every device. Context creation fails naming what the device lacks.
   // Unset: on when PENUMBRA_ROBUST_ACCESS=1.
   std::optional<bool> robust_access;
+  // The validation layer's debug printf (GL_EXT_debug_printf in shaders), verbose, so that each
+  // message names the invocation that printed it; the messages go to
+  // ValidationSink::take_printf(), not to the validation messages. Needs validation on; ignored
+  // without it. Unset: on when PENUMBRA_DEBUG_PRINTF=1.
+  std::optional<bool> debug_printf;
 };
 
 struct DeviceInfo {
@@ -74,6 +79,11 @@ class Context {
   VkCommandPool command_pool() const { return command_pool_; }
   const DeviceInfo& info() const { return info_; }
   bool validation_enabled() const { return validation_; }
+  // Shader debug printf reaches validation_sink().take_printf() (ContextOptions::debug_printf).
+  bool debug_printf_enabled() const { return debug_printf_; }
+  // ... and its messages name the invocation that printed (not when VK_LAYER_SETTINGS_PATH
+  // pointed the layer at the user's own settings).
+  bool debug_printf_verbose() const { return debug_printf_verbose_; }
   ValidationSink& validation_sink() { return sink_; }
 
   // Multi-line report: device, type, driver, API version, key limits, validation state.
@@ -98,6 +108,8 @@ class Context {
   VkPhysicalDeviceMemoryProperties memory_{};
   DeviceInfo info_;
   bool validation_ = false;
+  bool debug_printf_ = false;
+  bool debug_printf_verbose_ = false;
   ValidationSink sink_;
 };
 

@@ -17,16 +17,22 @@ struct ValidationMessage {
 
 // Collects validation-layer messages of warning and error severity. Thread-safe: the layer may
 // call from any thread. Tests consume the messages they caused with take().
+//
+// Shader debug printf output (GL_EXT_debug_printf, ContextOptions::debug_printf) is not a
+// validation message: it is kept apart, and take_printf() consumes it.
 class ValidationSink {
  public:
   void push(ValidationMessage message);
   std::vector<ValidationMessage> take();  // returns and clears the collected messages
   size_t count() const;
   size_t total_seen() const;  // every message ever pushed, never reset
+  void push_printf(std::string message);
+  std::vector<std::string> take_printf();
 
  private:
   mutable std::mutex mutex_;
   std::vector<ValidationMessage> messages_;
+  std::vector<std::string> printf_;
   size_t total_ = 0;
 };
 

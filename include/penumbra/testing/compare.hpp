@@ -145,6 +145,12 @@ struct ComparisonResult {
   explicit operator bool() const { return passed; }
 };
 
+// The debug printf lines of the last ShaderFunction run on this thread, per case (set by
+// ShaderFunction::run). A failing batch comparison over as many cases lists each reported
+// case's lines after its mismatches.
+void set_last_run_printf(const std::vector<std::vector<std::string>>& per_case);
+const std::vector<std::vector<std::string>>& last_run_printf();
+
 // Describes the inputs of case i, e.g. [&](size_t i) { return format_tuple(args[i]); }.
 using DescribeInputs = std::function<std::string(std::size_t)>;
 

@@ -20,6 +20,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/shader/compiler.hpp>
+#include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/glsl_types.hpp>
 #include <source_location>
 #include <span>
@@ -256,8 +257,12 @@ class FunctionEngine {
   // Runs `count` cases (inputs: count · input_stride bytes) and fills outputs (count ·
   // output_stride bytes). resources[i] binds the i-th resource parameter.
   // Throws OutOfBoundsError when bounds are checked and a case went outside an image.
+  // `printed`, when given, receives each case's debug printf lines (see ShaderFunction::printed).
   void run(std::span<const std::byte> inputs, size_t count, std::span<std::byte> outputs,
-           const std::vector<ResourceBinding>& resources);
+           const std::vector<ResourceBinding>& resources,
+           std::vector<std::vector<std::string>>* printed = nullptr);
+  // The wrapper's SPIR-V prints (GL_EXT_debug_printf).
+  bool prints() const { return prints_; }
 
   struct Impl;
 
@@ -274,6 +279,7 @@ class FunctionEngine {
   std::vector<ResourceKind> resource_kinds_;
   std::vector<size_t> resource_params_;  // parameter index of each resource
   bool check_bounds_ = false;            // the wrapper carries the bounds checks
+  bool prints_ = false;
   std::vector<std::string> bounds_types_;  // the GLSL type of each checked overload
   std::unique_ptr<Impl> impl_;
 };
@@ -404,7 +410,8 @@ class ShaderFunction<R(P...)> {
           },
           cases[c]);
     }
-    engine_->run(input_bytes_, n, output_bytes_, resources_);
+    engine_->run(input_bytes_, n, output_bytes_, resources_, &printed_);
+    set_last_run_printf(printed_);
     const auto& out_off = engine_->output_offsets();
     const auto& out_types = engine_->output_types();
     for (size_t c = 0; c < n; ++c) {
@@ -438,10 +445,18 @@ class ShaderFunction<R(P...)> {
   const std::string& source() const { return engine_->source(); }
   const FunctionEngine& engine() const { return *engine_; }
 
+  // What each case of the last run printed with debugPrintfEXT (GL_EXT_debug_printf), in the
+  // order printed: printed()[case] is that case's lines. Empty when the function does not print;
+  // when it prints but the device was made without debug printf (PENUMBRA_DEBUG_PRINTF=1 with
+  // validation on), run() says so once on stderr. A failing PENUMBRA_EXPECT_ALL_NEAR over this
+  // run's results lists each reported case's lines.
+  const std::vector<std::vector<std::string>>& printed() const { return printed_; }
+
  private:
   std::shared_ptr<FunctionEngine> engine_;
   std::vector<ResourceBinding> resources_;
   std::vector<std::byte> input_bytes_, output_bytes_;
+  std::vector<std::vector<std::string>> printed_;
 };
 
 }  // namespace penumbra::testing

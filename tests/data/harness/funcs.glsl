@@ -103,4 +103,12 @@ layout(set = 1, binding = 0) uniform usampler2D harness_ids;
 layout(set = 1, binding = 1) uniform isamplerBuffer harness_list;
 uint harness_id_at(ivec2 p) { return texelFetch(harness_ids, p, 0).r + uint(texelFetch(harness_list, p.x).r); }
 
+// Debug printf: a case prints its input, and a second line when it is negative.
+#extension GL_EXT_debug_printf : enable
+float print_and_square(float x) {
+  debugPrintfEXT("x = %f", x);
+  if (x < 0.0) debugPrintfEXT("negative: %f", x);
+  return x * x;
+}
+
 #endif
