@@ -434,9 +434,68 @@ std::vector<CompileError::Diagnostic> parse_info_log(const std::string& log,
   return diags;
 }
 
+// An included file that ends inside an #if/#ifdef/#ifndef: glslang reports "missing #endif" at
+// the end of the file that included it. Finds the included file and the line of the innermost
+// conditional it leaves open.
+std::optional<CompileError::Diagnostic> unterminated_conditional(const SourceSet& sources) {
+  for (const fs::path& path : sources.dependencies) {
+    const auto it = sources.contents.find(path.string());
+    if (it == sources.contents.end()) continue;  // the main file: glslang names it correctly
+    std::istringstream in(it->second);
+    std::string line;
+    std::vector<std::pair<int, std::string>> open;  // (line, directive)
+    bool in_comment = false;
+    for (int n = 1; std::getline(in, line); ++n) {
+      size_t i = 0;
+      if (in_comment) {
+        const size_t end = line.find("*/");
+        if (end == std::string::npos) continue;
+        in_comment = false;
+        i = end + 2;
+      }
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+      if (line.compare(i, 2, "/*") == 0 && line.find("*/", i + 2) == std::string::npos) {
+        in_comment = true;
+        continue;
+      }
+      if (i >= line.size() || line[i] != '#') continue;
+      ++i;
+      while (i < line.size() && (line[i] == ' ' || line[i] == '\t')) ++i;
+      size_t e = i;
+      while (e < line.size() && std::isalpha(static_cast<unsigned char>(line[e]))) ++e;
+      const std::string directive = line.substr(i, e - i);
+      if (directive == "if" || directive == "ifdef" || directive == "ifndef") {
+        open.emplace_back(n, "#" + directive);
+      } else if (directive == "endif" && !open.empty()) {
+        open.pop_back();
+      }
+    }
+    if (!open.empty()) {
+      CompileError::Diagnostic d;
+      d.file = path;
+      d.line = open.back().first;
+      d.message = "unterminated " + open.back().second + ": " + sources.display(path.string()) +
+                  " ends before its #endif (a file cut short, or an #endif missing)";
+      if (open.size() > 1)
+        d.message += "; " + std::to_string(open.size() - 1) + " enclosing block(s) also open";
+      return d;
+    }
+  }
+  return std::nullopt;
+}
+
 [[noreturn]] void throw_compile_error(const std::string& log, const SourceSet& sources,
                                       std::string_view what_failed) {
   std::vector<CompileError::Diagnostic> diags = parse_info_log(log, sources);
+  for (auto& diag : diags) {
+    if (diag.message.find("missing #endif") == std::string::npos) continue;
+    if (auto where = unterminated_conditional(sources)) {
+      where->message += " (glslang reports it at " + diag.file.generic_string() + ":" +
+                        std::to_string(diag.line) + ", where the including file ends)";
+      diag = std::move(*where);
+    }
+    break;
+  }
   if (diags.empty()) {
     // Nothing parseable (should not happen): keep glslang's raw text.
     std::string message = std::string(what_failed) + " failed";

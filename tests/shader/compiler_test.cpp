@@ -182,6 +182,46 @@ TEST(ShaderCompiler, ErrorInsideIncludeReportsTheIncludedFile) {
   EXPECT_THAT(what, Not(HasSubstr("error_in_include.comp:4")));
 }
 
+// An include cut short (an editor's half-written save) leaves a conditional open; glslang says
+// "missing #endif" at the end of the file that included it. The error names the include and the
+// line of the innermost block it leaves open.
+TEST(ShaderCompiler, AnIncludeCutShortIsBlamedWhereItsOpenBlockBegan) {
+  TempDir dir;
+  write_file(dir.path() / "cut.glsl",
+             "// a guarded helper file\n"
+             "#ifndef CUT_GLSL\n"
+             "#define CUT_GLSL\n"
+             "float cut_a() { return 1.0; }\n"
+             "#if defined(FOO)\n"
+             "float cut_b() { return 2.0; }\n"
+             "#endif\n"
+             "#ifdef BAR\n"
+             "float cut_c() { return 3.0; }\n");
+  write_file(dir.path() / "main.comp",
+             "#version 460\n#extension GL_GOOGLE_include_directive : require\n"
+             "#include \"cut.glsl\"\nlayout(local_size_x = 1) in;\nvoid main() {}\n");
+  Compiler compiler;
+  const CompileError e =
+      expect_compile_error([&] { compiler.compile_file(dir.path() / "main.comp"); });
+  ASSERT_FALSE(e.diagnostics().empty());
+  EXPECT_EQ(e.diagnostics()[0].file, dir.path() / "cut.glsl");
+  EXPECT_EQ(e.diagnostics()[0].line, 8);
+  EXPECT_THAT(e.diagnostics()[0].message, HasSubstr("unterminated #ifdef"));
+  EXPECT_THAT(e.diagnostics()[0].message, HasSubstr("1 enclosing block(s) also open"));
+  const std::string what = e.what();
+  EXPECT_EQ(what.rfind((dir.path() / "cut.glsl").string() + ":8: error: ", 0), 0u) << what;
+
+  // Balanced, the same file compiles; the main file's own open block is glslang's to report.
+  write_file(dir.path() / "cut.glsl", "#ifndef CUT_GLSL\n#define CUT_GLSL\n#endif\n");
+  EXPECT_NO_THROW(compiler.compile_file(dir.path() / "main.comp"));
+  write_file(dir.path() / "main.comp",
+             "#version 460\n#extension GL_GOOGLE_include_directive : require\n"
+             "#include \"cut.glsl\"\n#ifdef X\nlayout(local_size_x = 1) in;\nvoid main() {}\n");
+  const CompileError own =
+      expect_compile_error([&] { compiler.compile_file(dir.path() / "main.comp"); });
+  EXPECT_EQ(own.diagnostics()[0].file, dir.path() / "main.comp");
+}
+
 TEST(ShaderCompiler, FirstDiagnosticIsTheRealError) {
   Compiler compiler;
   const CompileError e =
