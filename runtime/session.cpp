@@ -224,6 +224,10 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
     }
     if (shown.empty() && !unchanged.empty())
       log("[reload] still failing (same error): " + join(short_names(unchanged)));
+    // A reload is all or nothing: what compiled waits for the failing ones.
+    if (!rec.result.held.empty())
+      log("[reload] not swapped in until every pipeline the edit reaches builds: " +
+          join(short_names(rec.result.held)));
   }
   return rec;
 }

@@ -162,6 +162,7 @@ void add_bindings(const spirv_cross::Compiler& compiler,
         binding.image_dim = image_dim(base.image.dim);
         binding.image_arrayed = base.image.arrayed;
         binding.image_depth = base.image.depth;
+        if (kind == DescriptorKind::storage_image) binding.image_format = int(base.image.format);
       }
     }
     out.push_back(std::move(binding));
@@ -296,6 +297,26 @@ Reflection reflect(const std::vector<uint32_t>& spirv) {
     }
     std::sort(result.spec_constants.begin(), result.spec_constants.end(),
               [](const SpecConstant& a, const SpecConstant& b) { return a.id < b.id; });
+    const auto stage_variables = [&](const auto& list, std::vector<StageVariable>& out) {
+      for (const spirv_cross::Resource& r : list) {
+        if (compiler.has_decoration(r.id, spv::DecorationBuiltIn) ||
+            !compiler.has_decoration(r.id, spv::DecorationLocation)) {
+          continue;
+        }
+        const SPIRType& type = compiler.get_type(r.type_id);
+        StageVariable v;
+        v.location = compiler.get_decoration(r.id, spv::DecorationLocation);
+        v.name = compiler.get_name(r.id);
+        v.type = type_name(compiler, compiler.get_type(r.base_type_id));
+        for (uint32_t dim : array_dims(compiler, type)) v.array_size *= dim;
+        out.push_back(std::move(v));
+      }
+      std::sort(out.begin(), out.end(), [](const StageVariable& a, const StageVariable& b) {
+        return a.location < b.location;
+      });
+    };
+    stage_variables(resources.stage_inputs, result.inputs);
+    stage_variables(resources.stage_outputs, result.outputs);
     return result;
   } catch (const penumbra::Error&) {
     throw;
@@ -328,6 +349,127 @@ std::string to_string(const Reflection& reflection) {
     out << "spec_constant " << sc.id << ": " << sc.type << ' ' << sc.name << '\n';
   }
   return out.str();
+}
+
+namespace {
+
+std::string binding_text(const DescriptorBinding& b) {
+  std::string s = std::string(to_string(b.kind)) + " '" + b.name + "'";
+  if (b.count != 1) s += "[" + std::to_string(b.count) + "]";
+  if (b.image_dim != 0) {
+    s += b.image_dim == 6 ? " cube" : " " + std::to_string(b.image_dim) + "D";
+    if (b.image_arrayed) s += " array";
+    if (b.image_depth) s += " depth";
+  }
+  if (b.image_format != 0) s += " format " + std::to_string(b.image_format);
+  return s;
+}
+
+std::string member_type(const BlockMember& m) {
+  std::string s = m.type;
+  for (uint32_t d : m.array_dims) s += "[" + (d == 0 ? std::string() : std::to_string(d)) + "]";
+  return s;
+}
+
+void compare_members(const std::vector<BlockMember>& made_for, const std::vector<BlockMember>& next,
+                     const std::string& path, std::vector<std::string>& out) {
+  for (const BlockMember& n : next) {
+    const auto it = std::find_if(made_for.begin(), made_for.end(),
+                                 [&](const BlockMember& m) { return m.name == n.name; });
+    const std::string where = path + "." + n.name;
+    if (it == made_for.end()) {
+      out.push_back(where + " (" + member_type(n) + " at offset " + std::to_string(n.offset) +
+                    ") is new: the host does not write it");
+      continue;
+    }
+    // A struct is compared member by member (it may lose trailing members); its array stride
+    // still moves every element after the first.
+    const bool is_struct = !n.members.empty() || !it->members.empty();
+    if (it->offset != n.offset || member_type(*it) != member_type(n) ||
+        it->array_stride != n.array_stride || it->matrix_stride != n.matrix_stride ||
+        (!is_struct && it->size != n.size)) {
+      out.push_back(where + " was " + member_type(*it) + " at offset " +
+                    std::to_string(it->offset) + " (size " + std::to_string(it->size) +
+                    "), is now " + member_type(n) + " at offset " + std::to_string(n.offset) +
+                    " (size " + std::to_string(n.size) + ")");
+      continue;
+    }
+    compare_members(it->members, n.members, where, out);
+  }
+}
+
+void compare_stage_variables(const std::vector<StageVariable>& made_for,
+                             const std::vector<StageVariable>& next, const char* what,
+                             std::vector<std::string>& out) {
+  for (const StageVariable& n : next) {
+    const auto it = std::find_if(made_for.begin(), made_for.end(), [&](const StageVariable& m) {
+      return m.location == n.location;
+    });
+    const std::string text = n.type + (n.array_size != 1 ? "[" + std::to_string(n.array_size) + "]"
+                                                           : std::string()) +
+                             " '" + n.name + "'";
+    if (it == made_for.end()) {
+      out.push_back(std::string(what) + " at location " + std::to_string(n.location) + " (" +
+                    text + ") is new: the pipeline has nothing there");
+    } else if (it->type != n.type || it->array_size != n.array_size) {
+      out.push_back(std::string(what) + " at location " + std::to_string(n.location) + " was " +
+                    it->type + " '" + it->name + "', is now " + text);
+    }
+  }
+}
+
+}  // namespace
+
+std::vector<std::string> interface_changes(const Reflection& made_for, const Reflection& next) {
+  std::vector<std::string> out;
+  for (const DescriptorBinding& n : next.bindings) {
+    const auto it = std::find_if(
+        made_for.bindings.begin(), made_for.bindings.end(),
+        [&](const DescriptorBinding& m) { return m.set == n.set && m.binding == n.binding; });
+    const std::string where =
+        "set " + std::to_string(n.set) + ", binding " + std::to_string(n.binding);
+    if (it == made_for.bindings.end()) {
+      out.push_back(where + " (" + binding_text(n) +
+                    ") is new: the pipeline layout has no such binding");
+      continue;
+    }
+    if (it->kind != n.kind || it->count != n.count || it->image_dim != n.image_dim ||
+        it->image_arrayed != n.image_arrayed || it->image_depth != n.image_depth ||
+        it->image_format != n.image_format) {
+      out.push_back(where + " was " + binding_text(*it) + ", is now " + binding_text(n));
+      continue;
+    }
+    if (it->block && n.block) {
+      compare_members(it->block->members, n.block->members, n.block->type_name, out);
+    }
+  }
+  if (next.push_constants) {
+    if (!made_for.push_constants) {
+      out.push_back("push constants (" + next.push_constants->type_name +
+                    ") are new: the pipeline layout has no push-constant range");
+    } else {
+      compare_members(made_for.push_constants->members, next.push_constants->members,
+                      next.push_constants->type_name, out);
+    }
+  }
+  if (made_for.workgroup_size != next.workgroup_size) {
+    const auto text = [](const std::array<uint32_t, 3>& w) {
+      return std::to_string(w[0]) + "x" + std::to_string(w[1]) + "x" + std::to_string(w[2]);
+    };
+    out.push_back("workgroup size was " + text(made_for.workgroup_size) + ", is now " +
+                  text(next.workgroup_size) + ": the pass dispatches for the first");
+  }
+  for (const SpecConstant& n : next.spec_constants) {
+    const auto it = std::find_if(made_for.spec_constants.begin(), made_for.spec_constants.end(),
+                                 [&](const SpecConstant& m) { return m.id == n.id; });
+    if (it != made_for.spec_constants.end() && it->type != n.type) {
+      out.push_back("specialization constant " + std::to_string(n.id) + " was " + it->type +
+                    ", is now " + n.type + " '" + n.name + "'");
+    }
+  }
+  compare_stage_variables(made_for.inputs, next.inputs, "input", out);
+  compare_stage_variables(made_for.outputs, next.outputs, "output", out);
+  return out;
 }
 
 }  // namespace penumbra::shader

@@ -1,4 +1,6 @@
 #include <algorithm>
+#include <cctype>
+#include <fstream>
 #include <penumbra/core/error.hpp>
 #include <penumbra/shader/registry.hpp>
 
@@ -26,42 +28,166 @@ Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
 }
 
 void ProgramRegistry::add(std::string name, std::vector<ProgramSource> sources, Create create) {
-  Program p{std::move(name), std::move(sources), {}, std::move(create)};
-  p.create(compile(p.sources, &p.dependencies));
+  Program p{std::move(name), std::move(sources), {}, std::move(create), {}, {}};
+  Spirvs spirv = compile(p.sources, &p.dependencies);
+  for (const auto& stage : spirv) p.made_for.push_back(reflect(stage));
+  p.create(spirv);
+  p.current = std::move(spirv);
   programs_.push_back(std::move(p));
 }
+
+namespace {
+
+bool is_word_char(char c) { return std::isalnum(static_cast<unsigned char>(c)) || c == '_'; }
+
+// The first line of `files` that mentions `word` as a whole word on a declaration-looking line
+// (`type word;`, or a line with `layout`, `struct`, `uniform` or `buffer`), as "file:line".
+std::string declaration_of(const std::string& word, const std::vector<fs::path>& files) {
+  if (word.empty()) return {};
+  for (const fs::path& f : files) {
+    std::ifstream in(f);
+    std::string line;
+    for (int n = 1; std::getline(in, line); ++n) {
+      for (size_t at = line.find(word); at != std::string::npos; at = line.find(word, at + 1)) {
+        const bool starts = at == 0 || !is_word_char(line[at - 1]);
+        const bool ends = at + word.size() >= line.size() || !is_word_char(line[at + word.size()]);
+        if (!starts || !ends) continue;
+        // `type name;` / `type name[N];` (a member or variable), or a line that declares a
+        // resource or a struct; not a use such as `frame.name.x`.
+        size_t b = at;
+        while (b > 0 && (line[b - 1] == ' ' || line[b - 1] == '\t')) --b;
+        const bool after_type = b < at && b > 0 && is_word_char(line[b - 1]);
+        size_t e = at + word.size();
+        while (e < line.size() && line[e] != ';' && line[e] != '=' && line[e] != '(' &&
+               line[e] != '.')
+          ++e;
+        const bool ends_declaration = e < line.size() && line[e] == ';';
+        const bool declares = (after_type && ends_declaration) ||
+                              line.find("layout") != std::string::npos ||
+                              line.find("struct") != std::string::npos ||
+                              line.find("uniform") != std::string::npos ||
+                              line.find("buffer") != std::string::npos;
+        if (declares) return f.string() + ":" + std::to_string(n);
+        break;
+      }
+    }
+  }
+  return {};
+}
+
+// The quoted names in an interface_changes() line ('name'; in "was 'a', is now 'b'" the new one
+// is last), or the last part of the dotted member path it starts with: what to look for.
+std::vector<std::string> names_in(const std::string& change) {
+  std::vector<std::string> names;
+  for (size_t q = change.find('\''); q != std::string::npos;) {
+    const size_t end = change.find('\'', q + 1);
+    if (end == std::string::npos) break;
+    names.push_back(change.substr(q + 1, end - q - 1));
+    q = change.find('\'', end + 1);
+  }
+  const size_t space = change.find(' ');
+  const std::string head = change.substr(0, space);
+  if (const size_t dot = head.rfind('.'); dot != std::string::npos && names.empty())
+    names.push_back(head.substr(dot + 1));
+  return names;
+}
+
+}  // namespace
 
 ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
                                      const std::function<void()>& before_first_create) {
   ReloadResult result;
   std::set<fs::path> files;
   for (const auto& f : changed_files) files.insert(fs::weakly_canonical(f));
-  bool first = true;
+
+  // 1. Recompile and check every program the change reaches; create nothing yet.
+  struct Pending {
+    Program* program;
+    Spirvs spirv;
+    std::set<fs::path> deps;
+  };
+  std::vector<Pending> pending;
   for (auto& p : programs_) {
     const bool affected = std::any_of(files.begin(), files.end(), [&](const fs::path& f) {
       return p.dependencies.count(f) > 0;
     });
     if (!affected) continue;
-    std::set<fs::path> deps;
-    Spirvs spirv;
+    Pending next{&p, {}, {}};
     try {
-      spirv = compile(p.sources, &deps);
+      next.spirv = compile(p.sources, &next.deps);
     } catch (const Error& e) {  // a compile error, or a stage file that cannot be read
-      result.failed.push_back(p.name);
-      result.errors.push_back(e.what());
-      continue;  // the last good pipeline stays
-    }
-    if (first && before_first_create) before_first_create();
-    first = false;
-    try {
-      p.create(spirv);
-    } catch (const Error& e) {
       result.failed.push_back(p.name);
       result.errors.push_back(e.what());
       continue;
     }
-    p.dependencies = std::move(deps);
-    result.rebuilt.push_back(p.name);
+    std::vector<std::string> changes;
+    const std::vector<fs::path> read(next.deps.begin(), next.deps.end());
+    for (size_t stage = 0; stage < next.spirv.size() && stage < p.made_for.size(); ++stage) {
+      std::vector<std::string> stage_changes;
+      try {
+        stage_changes = interface_changes(p.made_for[stage], reflect(next.spirv[stage]));
+      } catch (const Error& e) {
+        stage_changes = {e.what()};
+      }
+      const fs::path stage_file = shader_dir_ / p.sources[stage].file;
+      for (const std::string& c : stage_changes) {
+        std::string where;
+        const std::vector<std::string> names = names_in(c);
+        for (auto name = names.rbegin(); name != names.rend(); ++name) {  // the new one last
+          // The stage file first, then what it includes.
+          std::vector<fs::path> order{stage_file};
+          order.insert(order.end(), read.begin(), read.end());
+          where = declaration_of(*name, order);
+          if (!where.empty()) break;
+        }
+        changes.push_back((where.empty() ? stage_file.string() : where) + ": " + c);
+      }
+    }
+    if (!changes.empty()) {
+      std::string message = "program '" + p.name +
+                            "': the edit changes the interface its pipeline was made for (the "
+                            "pipeline layout, vertex input, attachments and dispatch stay as "
+                            "built):";
+      for (const std::string& c : changes) message += "\n  " + c;
+      result.failed.push_back(p.name);
+      result.errors.push_back(std::move(message));
+      continue;
+    }
+    pending.push_back(std::move(next));
+  }
+  if (!result.failed.empty()) {
+    for (const Pending& n : pending) result.held.push_back(n.program->name);
+    return result;  // all or nothing: every last good pipeline stays
+  }
+
+  // 2. Create them all; if one fails, put back those already recreated.
+  if (!pending.empty() && before_first_create) before_first_create();
+  for (size_t i = 0; i < pending.size(); ++i) {
+    Program& p = *pending[i].program;
+    try {
+      p.create(pending[i].spirv);
+    } catch (const Error& e) {
+      result.failed.push_back(p.name);
+      result.errors.push_back(e.what());
+      for (size_t k = 0; k < i; ++k) {
+        Program& done = *pending[k].program;
+        try {
+          done.create(done.current);
+          result.held.push_back(done.name);
+        } catch (const Error& again) {
+          result.failed.push_back(done.name);
+          result.errors.push_back("putting back the last good '" + done.name +
+                                  "' failed: " + again.what());
+        }
+      }
+      for (size_t k = i + 1; k < pending.size(); ++k) result.held.push_back(pending[k].program->name);
+      return result;
+    }
+  }
+  for (Pending& n : pending) {
+    n.program->current = std::move(n.spirv);
+    n.program->dependencies = std::move(n.deps);
+    result.rebuilt.push_back(n.program->name);
   }
   return result;
 }

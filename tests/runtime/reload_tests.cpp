@@ -146,6 +146,56 @@ TEST_F(ReloadTest, ABrokenEditKeepsTheImageAndNamesTheIncludedFileAndLine) {
   EXPECT_EQ(s->pixels(), before) << "the last good pipelines must keep rendering";
 }
 
+// Edits that compile but change what the pipeline was made for (issue 18's crashes): a storage
+// image moved to another set or binding. The reload is refused naming the declaration's
+// file:line, nothing crashes, and the last good pipeline keeps rendering the same image; undoing
+// the edit reloads cleanly.
+TEST_F(ReloadTest, AnEditThatMovesABindingIsRefusedAndTheImageStays) {
+  auto s = start();
+  const auto before = s->pixels();
+  const std::string decl = "layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D";
+  const int line = testing::line_of(testing::read_text(shader("render/shadow_resolve.comp")), decl);
+  ASSERT_GT(line, 0);
+  for (const std::string moved : {"layout(set = 1, binding = 6, rgba16f) uniform writeonly image2D",
+                                  "layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D"}) {
+    edit("render/shadow_resolve.comp", decl, moved);
+    const auto rec = s->wait_reload(kTimeout);
+    ASSERT_TRUE(rec) << moved;
+    EXPECT_TRUE(rec->result.rebuilt.empty());
+    EXPECT_EQ(short_names(rec->result.failed), (std::vector<std::string>{"shadow-resolve"}));
+    const std::string where =
+        shader("render/shadow_resolve.comp").string() + ":" + std::to_string(line) + ": ";
+    EXPECT_THAT(s->error_text(), HasSubstr(where)) << s->error_text();
+    EXPECT_THAT(s->error_text(), HasSubstr("is new: the pipeline layout has no such binding"));
+    s->render();
+    EXPECT_EQ(s->pixels(), before) << moved;
+    edit("render/shadow_resolve.comp", moved, decl);
+    const auto undo = s->wait_reload(kTimeout);
+    ASSERT_TRUE(undo);
+    EXPECT_TRUE(undo->result.ok()) << s->error_text();
+    EXPECT_EQ(s->pixels(), before);
+  }
+}
+
+// A member removed from a struct every pass shares: the passes that still compile would read
+// the host's FrameGpu at the wrong offsets, so the whole reload is refused (none of the
+// pipelines the edit reaches is swapped) and the image does not change.
+TEST_F(ReloadTest, RemovingASharedStructMemberSwapsNothing) {
+  auto s = start();
+  const auto before = s->pixels();
+  const size_t reading = s->renderer().pipelines_reading(shader("penumbra/frame_types.glsl")).size();
+  ASSERT_GT(reading, 3u);
+  edit("penumbra/frame_types.glsl", "  vec4 viewport;\n", "");
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.rebuilt.empty()) << ::testing::PrintToString(rec->result.rebuilt);
+  EXPECT_FALSE(rec->result.failed.empty());
+  EXPECT_EQ(rec->result.failed.size() + rec->result.held.size(), reading);
+  EXPECT_THAT(s->error_text(), HasSubstr("changes the interface"));
+  s->render();
+  EXPECT_EQ(s->pixels(), before);
+}
+
 TEST_F(ReloadTest, TheFixAfterABrokenEditGivesTheImageOfAColdStart) {
   auto s = start();
   const auto original = s->pixels();

@@ -6,6 +6,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <penumbra/core/error.hpp>
 #include <penumbra/shader/registry.hpp>
 #include <string>
@@ -89,6 +90,152 @@ TEST(ProgramRegistry, AFailedCompileKeepsTheLastGoodProgramAndNamesTheFile) {
   res = r.reload({t.root / "lib/a.glsl"});
   EXPECT_THAT(res.rebuilt, ElementsAre("one"));
   EXPECT_EQ(created, 2);
+}
+
+// An edit that compiles but moves a binding, changes its type, shifts a block member, changes
+// the push constants, the workgroup size or an output is refused before anything is created,
+// naming the file:line of the declaration; dropping a binding or a trailing member is not a
+// change the pipeline cares about.
+TEST(ProgramRegistry, AnEditThatChangesTheInterfaceIsRefusedNamingTheDeclaration) {
+  Tree t;
+  const std::string good =
+      "#version 460\n"
+      "layout(local_size_x = 8) in;\n"
+      "struct Params { vec4 scale; vec4 offset; };\n"
+      "layout(std140, set = 0, binding = 0) uniform P { Params params; };\n"
+      "layout(std430, set = 0, binding = 1) buffer B { float v[]; };\n"
+      "layout(push_constant) uniform Push { uint count; } pc;\n"
+      "void main() { v[gl_GlobalInvocationID.x] = params.scale.x + params.offset.y + "
+      "float(pc.count); }\n";
+  t.write("i.comp", good);
+  ProgramRegistry r(t.root);
+  int created = 0;
+  r.add("i", {{"i.comp", {}}}, [&](const Spirvs&) { ++created; });
+  struct Case {
+    std::string from, to, says;
+    int line;
+  };
+  const std::vector<Case> refused{
+      {"set = 0, binding = 1) buffer", "set = 1, binding = 1) buffer",
+       "set 1, binding 1 (storage_buffer 'B') is new", 5},
+      {"set = 0, binding = 1) buffer", "set = 0, binding = 9) buffer",
+       "set 0, binding 9 (storage_buffer 'B') is new", 5},
+      {"binding = 0) uniform P", "binding = 1) uniform P",
+       "set 0, binding 1 was storage_buffer 'B', is now uniform_buffer 'P'", 4},
+      {"struct Params { vec4 scale; vec4 offset; }",
+       "struct Params { vec4 scale; vec4 extra; vec4 offset; }",
+       "P.params.offset was vec4 at offset 16 (size 16), is now vec4 at offset 32", 3},
+      {"uint count; } pc", "uint pad; uint count; } pc",
+       "Push.count was uint at offset 0 (size 4), is now uint at offset 4", 6},
+      {"local_size_x = 8", "local_size_x = 16", "workgroup size was 8x1x1, is now 16x1x1", 0},
+  };
+  for (const Case& c : refused) {
+    std::string edited = good;
+    ASSERT_NE(edited.find(c.from), std::string::npos) << c.from;
+    edited.replace(edited.find(c.from), c.from.size(), c.to);
+    t.write("i.comp", edited);
+    const auto res = r.reload({t.root / "i.comp"});
+    EXPECT_THAT(res.failed, ElementsAre("i")) << c.to;
+    EXPECT_THAT(res.rebuilt, IsEmpty());
+    ASSERT_EQ(res.errors.size(), 1u);
+    EXPECT_THAT(res.errors[0], HasSubstr("changes the interface")) << res.errors[0];
+    EXPECT_THAT(res.errors[0], HasSubstr(c.says)) << res.errors[0];
+    if (c.line > 0) {
+      EXPECT_THAT(res.errors[0],
+                  HasSubstr((t.root / "i.comp").string() + ":" + std::to_string(c.line) + ": "))
+          << res.errors[0];
+    }
+    EXPECT_EQ(created, 1) << "nothing is created for a refused edit: " << c.to;
+  }
+  // Using less is fine: no push constants, no uniform block (the layout keeps them unused).
+  t.write("i.comp",
+          "#version 460\nlayout(local_size_x = 8) in;\n"
+          "layout(std430, set = 0, binding = 1) buffer B { float v[]; };\n"
+          "void main() { v[gl_GlobalInvocationID.x] = 1.0; }\n");
+  const auto res = r.reload({t.root / "i.comp"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("i")) << ::testing::PrintToString(res.errors);
+  EXPECT_EQ(created, 2);
+}
+
+// Graphics stages: a new vertex input or a changed output type is refused.
+TEST(ProgramRegistry, VertexInputsAndFragmentOutputsMustStayAsTheyWere) {
+  Tree t;
+  t.write("s.vert",
+          "#version 460\nlayout(location = 0) in vec3 pos;\nlayout(location = 0) out vec2 uv;\n"
+          "void main() { uv = pos.xy; gl_Position = vec4(pos, 1.0); }\n");
+  t.write("s.frag",
+          "#version 460\nlayout(location = 0) in vec2 uv;\nlayout(location = 0) out vec4 color;\n"
+          "void main() { color = vec4(uv, 0.0, 1.0); }\n");
+  ProgramRegistry r(t.root);
+  int created = 0;
+  r.add("s", {{"s.vert", {}}, {"s.frag", {}}}, [&](const Spirvs& s) {
+    EXPECT_EQ(s.size(), 2u);
+    ++created;
+  });
+  t.write("s.vert",
+          "#version 460\nlayout(location = 0) in vec3 pos;\nlayout(location = 3) in vec4 tint;\n"
+          "layout(location = 0) out vec2 uv;\n"
+          "void main() { uv = pos.xy + tint.xy; gl_Position = vec4(pos, 1.0); }\n");
+  auto res = r.reload({t.root / "s.vert"});
+  ASSERT_EQ(res.errors.size(), 1u);
+  EXPECT_THAT(res.errors[0], HasSubstr("s.vert:3: input at location 3 (vec4 'tint') is new"));
+  t.write("s.vert",
+          "#version 460\nlayout(location = 0) in vec3 pos;\nlayout(location = 0) out vec2 uv;\n"
+          "void main() { uv = pos.xy; gl_Position = vec4(pos, 1.0); }\n");
+  t.write("s.frag",
+          "#version 460\nlayout(location = 0) in vec2 uv;\n"
+          "layout(location = 0) out uvec4 color;\nvoid main() { color = uvec4(uv, 0, 1); }\n");
+  res = r.reload({t.root / "s.frag"});
+  ASSERT_EQ(res.errors.size(), 1u);
+  EXPECT_THAT(res.errors[0], HasSubstr("s.frag:3: output at location 0 was vec4 'color', is now "
+                                       "uvec4 'color'"));
+  EXPECT_EQ(created, 1);
+}
+
+// One edit reaching several programs swaps all of them or none: a compile error in one keeps
+// the others' last good pipelines too; a creation that fails puts back those already swapped.
+TEST(ProgramRegistry, AReloadIsAllOrNothingAcrossTheProgramsAnEditReaches) {
+  Tree t;
+  t.write("lib/shared.glsl", "float shared_value() { return 1.0; }\n");
+  t.write("one.comp", Tree::stage("lib/shared.glsl", "shared_value()"));
+  t.write("two.comp", Tree::stage("lib/shared.glsl", "shared_value() + 1.0"));
+  t.write("three.comp", Tree::stage("lib/shared.glsl", "shared_value() * 2.0"));
+  ProgramRegistry r(t.root);
+  std::map<std::string, std::vector<Spirvs>> made;
+  bool fail_three = false;
+  for (std::string name : {"one", "two", "three"}) {
+    r.add(name, {{name + ".comp", {}}}, [&, name](const Spirvs& s) {
+      if (name == "three" && fail_three) throw Error("three: pipeline creation failed");
+      made[name].push_back(s);
+    });
+  }
+  // `two` stops compiling against the new helper; `one` and `three` would compile.
+  t.write("two.comp", Tree::stage("lib/shared.glsl", "shared_value() + missing_helper()"));
+  t.write("lib/shared.glsl", "float shared_value() { return 5.0; }\n");
+  auto res = r.reload({t.root / "lib/shared.glsl", t.root / "two.comp"});
+  EXPECT_THAT(res.failed, ElementsAre("two"));
+  EXPECT_THAT(res.held, ElementsAre("one", "three"));
+  EXPECT_THAT(res.rebuilt, IsEmpty());
+  for (const auto& [name, list] : made) EXPECT_EQ(list.size(), 1u) << name;
+
+  // All compile, but creating `three` fails: `one` and `two` were swapped, and are put back.
+  t.write("two.comp", Tree::stage("lib/shared.glsl", "shared_value() + 1.0"));
+  fail_three = true;
+  res = r.reload({t.root / "lib/shared.glsl", t.root / "two.comp"});
+  EXPECT_THAT(res.failed, ElementsAre("three"));
+  EXPECT_THAT(res.held, ElementsAre("one", "two"));
+  EXPECT_THAT(res.rebuilt, IsEmpty());
+  for (std::string name : {"one", "two"}) {
+    ASSERT_EQ(made[name].size(), 3u) << name;  // added, swapped, put back
+    EXPECT_EQ(made[name][2], made[name][0]) << name << " runs its last good SPIR-V again";
+    EXPECT_NE(made[name][1], made[name][0]) << name;
+  }
+  // Then it works, and all three swap.
+  fail_three = false;
+  t.write("lib/shared.glsl", "float shared_value() { return 6.0; }\n");
+  res = r.reload({t.root / "lib/shared.glsl"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("one", "two", "three"));
+  EXPECT_TRUE(res.held.empty());
 }
 
 TEST(ProgramRegistry, IncludesFollowTheEditAndCreateErrorsAreReported) {

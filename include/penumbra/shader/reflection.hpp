@@ -59,6 +59,15 @@ struct DescriptorBinding {
   int image_dim = 0;  // 1, 2, 3, or 6 for cube (0 for buffers and samplers, 7 for texel buffers)
   bool image_arrayed = false;
   bool image_depth = false;
+  int image_format = 0;  // storage images: the SPIR-V ImageFormat (0: Unknown, format-less)
+};
+
+// A user-defined stage input or output (built-ins are not listed).
+struct StageVariable {
+  uint32_t location = 0;
+  std::string name;
+  std::string type;  // GLSL type of one element, e.g. "vec4", "uint"
+  uint32_t array_size = 1;
 };
 
 struct SpecConstant {
@@ -72,6 +81,7 @@ struct Reflection {
   std::optional<Block> push_constants;
   std::array<uint32_t, 3> workgroup_size{1, 1, 1};  // compute only; spec-constant default values
   std::vector<SpecConstant> spec_constants;         // sorted by id
+  std::vector<StageVariable> inputs, outputs;       // sorted by location
 
   // By instance name, binding name or block type name; nullptr when absent.
   const DescriptorBinding* find_binding(std::string_view name) const;
@@ -79,6 +89,16 @@ struct Reflection {
 
 // Throws penumbra::Error when the SPIR-V cannot be parsed.
 Reflection reflect(const std::vector<uint32_t>& spirv);
+
+// Why a pipeline made for `made_for` (its descriptor set layouts, push-constant range, vertex
+// input, attachments and dispatch size) cannot run `next` (the same stage, recompiled): one line
+// per change, empty when it can. `next` may use fewer resources, inputs and outputs, and drop
+// block members that no other member's offset depends on; what it keeps must match: every
+// binding it uses at the same set and binding with the same kind, count, dimensions and format,
+// every block member at the same offset with the same type, the push constants likewise, the
+// same workgroup size, spec constants of the same type, inputs and outputs at the same
+// locations with the same types.
+std::vector<std::string> interface_changes(const Reflection& made_for, const Reflection& next);
 
 // Human-readable multi-line dump.
 std::string to_string(const Reflection& reflection);

@@ -2,8 +2,13 @@
 
 // The program registry: the pipelines of a renderer, each with the stage files it was built
 // from and every file those include, so a shader edit rebuilds exactly the pipelines that read
-// the edited file. A stage that fails to compile, or a pipeline whose creation fails, keeps the
-// last good pipeline.
+// the edited file.
+//
+// A reload is all or nothing across the programs one change reaches: every one is recompiled
+// and its interface checked against the one its pipeline layout, vertex input, attachments and
+// dispatch were made for (the SPIR-V given to `add`; shader::interface_changes) before any is
+// recreated. A compile error or an interface change in any of them keeps every last good
+// pipeline; a creation that fails puts back the ones already recreated.
 //
 //   shader::ProgramRegistry registry(shader_dir);
 //   registry.add("tonemap", {{"render/tonemap.comp", {}}}, [&](const shader::Spirvs& spirv) {
@@ -15,6 +20,7 @@
 #include <filesystem>
 #include <functional>
 #include <penumbra/shader/compiler.hpp>
+#include <penumbra/shader/reflection.hpp>
 #include <set>
 #include <string>
 #include <vector>
@@ -30,11 +36,13 @@ struct ProgramSource {
 // The SPIR-V of a program's stages, in the order of its sources.
 using Spirvs = std::vector<std::vector<uint32_t>>;
 
-// What a reload did: programs rebuilt, programs whose new sources failed (the last good
-// pipeline keeps running), and the compile errors with file:line.
+// What a reload did: programs rebuilt, programs whose new sources failed, and the errors with
+// file:line. When anything failed nothing was rebuilt: `held` lists the programs that compiled
+// but keep their last good pipeline because another one failed.
 struct ReloadResult {
   std::vector<std::string> rebuilt;
   std::vector<std::string> failed;
+  std::vector<std::string> held;
   std::vector<std::string> errors;
   bool ok() const { return failed.empty(); }
 };
@@ -70,6 +78,8 @@ class ProgramRegistry {
     std::vector<ProgramSource> sources;
     std::set<std::filesystem::path> dependencies;
     Create create;
+    std::vector<Reflection> made_for;  // per stage: the interface the pipeline was made for
+    Spirvs current;                    // the SPIR-V of the running pipeline
   };
   Spirvs compile(const std::vector<ProgramSource>& sources,
                  std::set<std::filesystem::path>* dependencies);
