@@ -89,15 +89,24 @@ std::string keys(const std::vector<std::string>& names) {
   return s;
 }
 
-uint32_t parse_uint(const std::string& flag, const std::string& v) {
+// A whole number in [lo, hi], or an error naming the flag, the value and the range.
+uint32_t parse_uint(const std::string& flag, const std::string& v, uint32_t lo = 0,
+                    uint32_t hi = 100000) {
+  unsigned long x = 0;
   try {
     size_t used = 0;
-    const unsigned long x = std::stoul(v, &used);
-    if (used != v.size() || x > 100000) throw std::out_of_range(v);
-    return static_cast<uint32_t>(x);
+    if (v.empty() || v[0] == '-' || v[0] == '+') throw std::invalid_argument(v);
+    x = std::stoul(v, &used);
+    if (used != v.size()) throw std::invalid_argument(v);
   } catch (const std::exception&) {
-    throw Error(flag + " " + v + ": expected a whole number");
+    throw Error(flag + " " + v + ": expected a whole number in [" + std::to_string(lo) + ", " +
+                std::to_string(hi) + "]");
   }
+  if (x < lo || x > hi) {
+    throw Error(flag + " " + v + ": out of range; must be in [" + std::to_string(lo) + ", " +
+                std::to_string(hi) + "]");
+  }
+  return static_cast<uint32_t>(x);
 }
 
 void usage() {
@@ -146,7 +155,7 @@ Options parse(int argc, char** argv) {
     else if (a == "--headless")
       o.headless = true;
     else if (a == "--frames")
-      o.frames = parse_uint(a, value());
+      o.frames = parse_uint(a, value(), 1, 10000);  // render.frames' range
     else if (a == "--out")
       o.out = value();
     else if (a == "--view") {
@@ -161,9 +170,10 @@ Options parse(int argc, char** argv) {
       const std::string v = value();
       const auto x = v.find('x');
       if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
-      o.width = parse_uint(a, v.substr(0, x));
-      o.height = parse_uint(a, v.substr(x + 1));
-      if (o.width == 0 || o.height == 0) throw Error("--size " + v + ": both sides must be > 0");
+      // The scene file's range for render.width and render.height; the device's own limits are
+      // checked once it is known (check_size).
+      o.width = parse_uint("--size " + v + ": width", v.substr(0, x), 16, 16384);
+      o.height = parse_uint("--size " + v + ": height", v.substr(x + 1), 16, 16384);
     } else if (a == "--list-devices")
       o.list_devices = true;
     else if (a == "--shader-dir") {
@@ -177,9 +187,16 @@ Options parse(int argc, char** argv) {
     else if (a == "--no-ui")
       o.ui = false;
     else if (a == "--debounce-ms")
-      o.debounce_ms = parse_uint(a, value());
-    else if (a == "--script")
-      o.scripts.emplace_back("script", value());
+      o.debounce_ms = parse_uint(a, value(), 0, 60000);
+    else if (a == "--script") {
+      const std::string file = value();
+      std::error_code ec;
+      if (file != "-" && fs::is_directory(file, ec))
+        throw Error("--script " + file + ": is a directory, not a script file");
+      if (file != "-" && !fs::exists(file, ec))
+        throw Error("--script " + file + ": no such file");
+      o.scripts.emplace_back("script", file);
+    }
     else if (a == "--command")
       o.scripts.emplace_back("command", value());
     else if (a == "--set")

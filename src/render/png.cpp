@@ -1,5 +1,7 @@
 #include <filesystem>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
+#include <string>
 #include <system_error>
 #include <penumbra/render/renderer.hpp>
 
@@ -26,21 +28,19 @@ void write_png(const std::filesystem::path& path, uint32_t width, uint32_t heigh
                 " bytes for a " + std::to_string(width) + "x" + std::to_string(height) +
                 " RGBA8 image (expected " + std::to_string(size_t{width} * height * 4) + ")");
   }
-  // Written next to the target, then renamed over it: a reader never sees half a PNG.
-  const std::filesystem::path tmp = path.string() + ".tmp";
-  if (stbi_write_png(tmp.string().c_str(), int(width), int(height), 4, rgba.data(),
-                     int(width * 4)) == 0) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
-    throw Error("write_png: cannot write " + path.string());
+  // Encoded in memory, then written next to the target and renamed over it
+  // (write_file_atomic): a reader never sees half a PNG, and a failed write (a full disk, a file
+  // size limit) is an error that leaves the old file as it was. stbi_write_png itself ignores
+  // fwrite's result.
+  std::string bytes;
+  const auto append = [](void* context, void* data, int size) {
+    static_cast<std::string*>(context)->append(static_cast<const char*>(data), size_t(size));
+  };
+  if (stbi_write_png_to_func(append, &bytes, int(width), int(height), 4, rgba.data(),
+                             int(width * 4)) == 0) {
+    throw Error("write_png: cannot encode " + path.string());
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw Error("write_png: cannot move " + tmp.string() + " to " + path.string() + ": " +
-                ec.message());
-  }
+  write_file_atomic(path, bytes);
 }
 
 }  // namespace penumbra::render

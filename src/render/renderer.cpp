@@ -287,6 +287,16 @@ Renderer::Renderer(gpu::Context& ctx, const scene::Scene& scene, RendererOptions
     throw Error("Renderer: width and height must be > 0 (got " + std::to_string(impl_->res.width) +
                 "x" + std::to_string(impl_->res.height) + ")");
   }
+  const auto& l = ctx.info().limits;
+  const uint32_t max_w = std::min(l.maxFramebufferWidth, l.maxViewportDimensions[0]);
+  const uint32_t max_h = std::min(l.maxFramebufferHeight, l.maxViewportDimensions[1]);
+  if (impl_->res.width > max_w || impl_->res.height > max_h) {
+    throw Error("render size " + std::to_string(impl_->res.width) + "x" +
+                std::to_string(impl_->res.height) +
+                " (render.width, render.height or --size): device " + ctx.info().name +
+                " renders at most " + std::to_string(max_w) + "x" + std::to_string(max_h) +
+                " (maxFramebufferWidth/Height, maxViewportDimensions)");
+  }
   impl_->build();
 }
 

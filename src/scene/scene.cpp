@@ -93,11 +93,14 @@ Scene::Requirements Scene::requirements() const {
   r.cascades = !r.sun_shadows                               ? 0
                 : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
                                                           : shadows.cascades;
-  for (const SpotLight& spot : spots) {
+  // Only the lights the renderer shades get maps (a scene built in code may hold more).
+  for (std::size_t i = 0; i < spots.size() && i < kMaxSpotLights; ++i) {
+    const SpotLight& spot = spots[i];
     r.spot_shadow_maps += spot.shadows ? 1 : 0;
     r.spot_moments = r.spot_moments || (spot.shadows && spot.filter == Filter::evsm2);
   }
-  for (const PointLight& point : points) {
+  for (std::size_t i = 0; i < points.size() && i < kMaxPointLights; ++i) {
+    const PointLight& point = points[i];
     r.point_shadow_cubes += point.shadows ? 1 : 0;
     r.point_moments = r.point_moments || (point.shadows && point.filter == Filter::evsm2);
   }

@@ -1,5 +1,7 @@
 // The TOML scene file: strict reading (every key known, every value typed and range-checked) with
 // errors that name the file, line, table and key. docs/scenes.md is the format's reference.
+#include <algorithm>
+#include <cctype>
 #include <fstream>
 #include <sstream>
 
@@ -193,6 +195,23 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   const Reader top(ctx, root, "");
   top.check_keys(kTopKeys);
   scene.name = top.opt_string("name").value_or(name_for_errors.stem().string());
+  // The name is a directory under out/: a plain name, never a path.
+  {
+    const std::string& n = scene.name;
+    const bool plain = !n.empty() && n.size() <= 64 && n[0] != '.' &&
+                       std::all_of(n.begin(), n.end(), [](char c) {
+                         return std::isalnum(static_cast<unsigned char>(c)) || c == '_' ||
+                                c == '-' || c == '.';
+                       });
+    if (!plain) {
+      const std::string shown = n.size() > 80 ? n.substr(0, 80) + "..." : n;
+      const std::string text = "name = '" + shown +
+                               "': must be a plain name of at most 64 letters, digits, '_', '-' "
+                               "and '.' (not first); it names the output directory out/<name>";
+      if (top.has("name")) top.fail_key("name", text);
+      throw Error(ctx.file + ": " + text + " (from the file name; give a `name`)");
+    }
+  }
 
   if (const toml::table* t = single_table(ctx, root, "camera")) {
     read_camera(Reader(ctx, *t, "[camera]"), scene);
@@ -202,12 +221,24 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   }
   const auto spots = table_array(ctx, root, "spot");
   for (std::size_t i = 0; i < spots.size(); ++i) {
+    if (i == kMaxSpotLights) {
+      const Reader extra(ctx, *spots[i], indexed_label("spot", i));
+      extra.fail_at(nullptr, extra.label() + ": a scene has at most " + std::to_string(kMaxSpotLights) +
+                                " spot lights (the renderer shades that many); this one would "
+                                "be ignored");
+    }
     SpotLight spot;
     read_spot(Reader(ctx, *spots[i], indexed_label("spot", i)), spot);
     scene.spots.push_back(spot);
   }
   const auto points = table_array(ctx, root, "point");
   for (std::size_t i = 0; i < points.size(); ++i) {
+    if (i == kMaxPointLights) {
+      const Reader extra(ctx, *points[i], indexed_label("point", i));
+      extra.fail_at(nullptr, extra.label() + ": a scene has at most " + std::to_string(kMaxPointLights) +
+                                " point lights (the renderer shades that many); this one would "
+                                "be ignored");
+    }
     PointLight point;
     read_point(Reader(ctx, *points[i], indexed_label("point", i)), point);
     scene.points.push_back(point);

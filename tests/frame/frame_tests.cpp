@@ -4,6 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <functional>
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -208,6 +211,40 @@ TEST_F(FrameTest, ClipmapShadowsDoNotFadeWithViewDistance) {
   size_t shadowed = 0;
   for (float v : clip) shadowed += v < 0.5f;
   EXPECT_GT(shadowed, 1000u);
+}
+
+// Shadow maps larger than the device allows (per image, or in all) are refused before anything
+// is created, naming the scene key and value, the image and the limit; where the device has the
+// room, the same scene builds. Either way no Vulkan call fails and no validation message comes.
+TEST_F(FrameTest, ShadowMapsBeyondTheDeviceAreAnErrorNamingTheKey) {
+  struct Case {
+    std::string key;
+    std::function<void(scene::Scene&)> set;
+  };
+  const std::vector<Case> cases{
+      {"shadows.resolution = 16384",
+       [](scene::Scene& s) {
+         s.shadows.resolution = 16384;
+         s.shadows.cascades = 4;
+       }},
+      {"[[point]] resolution = 8192", [](scene::Scene& s) {
+         s.points.resize(2, s.points.empty() ? scene::PointLight{} : s.points[0]);
+         for (auto& p : s.points) p.resolution = 8192;
+       }}};
+  for (const auto& c : cases) {
+    scene::Scene s = small(c.key.front() == '[' ? "indoor" : "default");
+    c.set(s);
+    try {
+      render::Renderer r(ctx(), s);
+      r.render(0);
+      std::printf("[device] %s: built (the device has the room)\n", c.key.c_str());
+    } catch (const Error& e) {
+      EXPECT_THAT(e.what(), ::testing::HasSubstr(c.key)) << e.what();
+      EXPECT_THAT(e.what(), ::testing::HasSubstr(ctx().info().name));
+      EXPECT_THAT(e.what(), ::testing::ContainsRegex("maxResourceSize|device memory|maxArrayLayers|"
+                                                     "maxImageDimensionCube|allows for it"));
+    }
+  }
 }
 
 TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {

@@ -1,7 +1,14 @@
 // The golden layer without a GPU: 16-bit PNGs, region masks, the region-aware comparison, the
 // cases file and the golden files.
 #include <gtest/gtest.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
 #include <unistd.h>
+
+#include <csignal>
+#include <iterator>
+#include <penumbra/core/file.hpp>
+#include <penumbra/render/renderer.hpp>
 
 #include <cmath>
 #include <fstream>
@@ -36,6 +43,54 @@ std::string error_of(const std::function<void()>& f) {
 }
 
 // ---- PNG ------------------------------------------------------------------------------------
+// A write that fails part way (here a file-size limit; a full disk fails the same way) is an
+// error naming the file, and the file that was there is left as it was: no truncated PNG.
+TEST(AtomicWrite, AFailedWriteIsAnErrorAndLeavesTheOldFileAlone) {
+  const fs::path dir = temp_dir("atomic");
+  const fs::path png = dir / "lit.png";
+  const fs::path csv = dir / "timings.csv";
+  write_text(png, "the previous image");
+  write_text(csv, "the previous timings");
+  // Incompressible pixels: the PNG is ~256 KiB, far past the limit the child sets.
+  std::vector<uint8_t> rgba(256 * 256 * 4);
+  uint32_t x = 12345;
+  for (auto& b : rgba) b = uint8_t((x = x * 1664525u + 1013904223u) >> 24);
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    std::signal(SIGXFSZ, SIG_IGN);  // the write fails with EFBIG instead of killing the process
+    const rlimit limit{4096, 4096};
+    ::setrlimit(RLIMIT_FSIZE, &limit);
+    int failures = 0;
+    try {
+      render::write_png(png, 256, 256, rgba);
+    } catch (const Error& e) {
+      failures += std::string(e.what()).find(png.string()) != std::string::npos ? 1 : 0;
+    }
+    try {
+      write_file_atomic(csv, std::string(100000, 'x'));
+    } catch (const Error& e) {
+      failures += std::string(e.what()).find(csv.string()) != std::string::npos ? 1 : 0;
+    }
+    ::_exit(failures == 2 ? 0 : 1);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "both writes must fail with an error naming the file";
+  std::ifstream in_png(png), in_csv(csv);
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in_png), {}), "the previous image");
+  EXPECT_EQ(std::string(std::istreambuf_iterator<char>(in_csv), {}), "the previous timings");
+  size_t leftovers = 0;
+  for (const auto& e : fs::directory_iterator(dir)) leftovers += e.path().extension() != ".png" &&
+                                                                 e.path().extension() != ".csv";
+  EXPECT_EQ(leftovers, 0u) << "no temporary files are left behind";
+  // Without the limit, the same writes succeed and replace the files.
+  render::write_png(png, 256, 256, rgba);
+  EXPECT_GT(fs::file_size(png), 200000u);
+  fs::remove_all(dir);
+}
+
 TEST(GoldenPng, SixteenBitVisibilityRoundTripsToOneStep) {
   const fs::path d = temp_dir("png");
   std::vector<float> v = {0.0f, 1.0f, 0.5f, 1.0f / 65535.0f, 0.123456f, 2.0f, -1.0f, NAN};

@@ -29,9 +29,6 @@ inner_angle = 30
 position = [1, 3, 0]
 direction = [0, -1, 0]
 shadows = false
-[[spot]]
-position = [2, 3, 0]
-direction = [0, -1, 0]
 [[point]]
 position = [0, 2, 1]
 range = 7
@@ -173,6 +170,12 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
   s.spots[0].radius = 0.125f;
   s.points[0].radius = 0.25f;
   s.points[0].filter = scene::Filter::pcss;
+  // A scene file holds at most kMaxSpotLights spots; one built in code may hold more: the third
+  // (shadowed) is neither packed nor given a map.
+  scene::SpotLight third = s.spots[0];
+  third.position = glm::dvec3(2, 3, 0);
+  s.spots.push_back(third);
+  EXPECT_EQ(s.requirements().spot_shadow_maps, 1u);
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
   // The sphere lights' radii reach the local resolve's PCSS.
   EXPECT_EQ(f.frame.spots[0].params.z, 0.125f);

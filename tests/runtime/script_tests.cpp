@@ -200,5 +200,28 @@ TEST_F(ScriptTest, ReplaceRefusesTheRepositoryShaders) {
   }
 }
 
+// Command-line values out of range are errors naming the flag and the range; a directory is not
+// a script; nothing is rendered or written for them.
+TEST(ViewFlags, OutOfRangeValuesAndADirectoryScriptAreErrors) {
+  TempTree tree(false);
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"--size 16385x16", "--size 16385x16: width 16385: out of range; must be in [16, 16384]"},
+      {"--size 100000x1", "--size 100000x1: width 100000: out of range"},
+      {"--size 99999x99999", "out of range; must be in [16, 16384]"},
+      {"--size 64x", "--size 64x: height : expected a whole number"},
+      {"--frames 0", "--frames 0: out of range; must be in [1, 10000]"},
+      {"--frames 1000000", "--frames 1000000: out of range"},
+      {"--frames -1", "--frames -1: expected a whole number"},
+      {"--script " + tree.root().string(), "is a directory, not a script file"},
+      {"--script " + (tree.root() / "missing.txt").string(), "missing.txt: no such file"},
+  };
+  for (const auto& [flags, says] : cases) {
+    const auto r = view(flags + " --out " + (tree.root() / "out").string());
+    EXPECT_NE(r.status, 0) << flags;
+    EXPECT_THAT(r.output, HasSubstr(says)) << flags;
+    EXPECT_FALSE(fs::exists(tree.root() / "out" / "lit.png")) << flags;
+  }
+}
+
 }  // namespace
 }  // namespace penumbra

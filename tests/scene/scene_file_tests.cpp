@@ -911,5 +911,33 @@ TEST(ToString, NamesRoundTrip) {
   EXPECT_EQ(to_string(MaskPattern::circles), "circles");
 }
 
+// A third spot or point light would be ignored by the renderer: it is an error at its table.
+TEST(SceneFile, MoreLocalLightsThanTheRendererShadesIsAnErrorAtTheExtraOne) {
+  const std::string spot = "[[spot]]\nposition = [0, 3, 0]\ndirection = [0, -1, 0]\n";
+  const std::string three_spots = kBox + spot + spot + "# the third\n" + spot;
+  const std::string e = error_of(three_spots);
+  EXPECT_THAT(e, HasSubstr("scenes/x.toml:10: [[spot]] #3: "));  // after "# the third"
+  EXPECT_THAT(e, HasSubstr("at most 2 spot lights"));
+  const std::string point = "[[point]]\nposition = [0, 2, 0]\n";
+  EXPECT_THAT(error_of(kBox + point + point + point), HasSubstr("at most 2 point lights"));
+  EXPECT_EQ(error_of(kBox + spot + spot + point + point), "(no error)");
+}
+
+// The scene's name is the output directory under out/: a path, an empty or a very long name is
+// refused at its line.
+TEST(SceneFile, ANameThatIsAPathIsRefused) {
+  for (const std::string& bad : std::vector<std::string>{"../../../x", "/tmp/abs", "a/b", "", ".hidden",
+                                std::string(5000, 'n')}) {
+    const std::string text = "name = \"" + bad + "\"\n" + kBox;
+    const std::string e = error_of(text);
+    EXPECT_THAT(e, HasSubstr("scenes/x.toml:1: ")) << bad;
+    EXPECT_THAT(e, ::testing::AnyOf(HasSubstr("must be a plain name"),
+                                    HasSubstr("must not be empty")))
+        << bad;
+    EXPECT_LT(e.size(), 400u) << "a long name is cut in the message";
+  }
+  EXPECT_EQ(parse("name = \"indoor-2.b_x\"\n" + kBox).name, "indoor-2.b_x");
+}
+
 }  // namespace
 }  // namespace penumbra::scene

@@ -1,6 +1,8 @@
 #pragma once
 // Atomic file output: every file written for a reader (timings, metrics, the reference cache)
 // goes through here, so a reader never sees half a file and a failed write is an error.
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <penumbra/core/error.hpp>
@@ -20,11 +22,18 @@ inline void write_file_atomic(const std::filesystem::path& path, std::string_vie
   std::error_code ec;
   {
     std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error("cannot write " + path.string() + ": cannot create " + tmp.string());
+    errno = 0;
     out.write(bytes.data(), std::streamsize(bytes.size()));
     out.flush();
-    if (!out) {
+    const int err = errno;
+    const bool written = bool(out);
+    out.close();
+    if (!written || !out) {
       std::filesystem::remove(tmp, ec);
-      throw Error("cannot write " + path.string());
+      throw Error("cannot write " + path.string() + " (" + std::to_string(bytes.size()) +
+                  " bytes)" + (!written && err != 0 ? std::string(": ") + std::strerror(err) : "") +
+                  "; the file there, if any, is unchanged");
     }
   }
   std::filesystem::rename(tmp, path, ec);

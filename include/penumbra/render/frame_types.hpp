@@ -8,11 +8,14 @@
 #include <cstddef>
 #include <cstdint>
 #include <glm/glm.hpp>
+#include <penumbra/scene/scene.hpp>
 
 namespace penumbra::render {
 
 inline constexpr uint32_t kMaxSpotLights = 2;
 inline constexpr uint32_t kMaxPointLights = 2;
+static_assert(kMaxSpotLights == scene::kMaxSpotLights && kMaxPointLights == scene::kMaxPointLights,
+              "the scene reader's light limits are the renderer's");
 
 struct alignas(16) LightGpu {
   glm::vec4 position_range;   // xyz relative to the render origin; w: range (m)

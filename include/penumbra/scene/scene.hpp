@@ -107,6 +107,11 @@ struct Sun {
 // its own uses pcf under the scene's evsm2.
 enum class Filter { hard, pcf, pcss, poisson, evsm2 };
 
+// How many spot and point lights the renderer shades (render::kMaxSpotLights and
+// kMaxPointLights, the frame's LightGpu arrays): a scene file with more is an error.
+inline constexpr std::size_t kMaxSpotLights = 2;
+inline constexpr std::size_t kMaxPointLights = 2;
+
 struct SpotLight {
   glm::vec3 position{0.0f};
   glm::vec3 direction{0.0f, -1.0f, 0.0f};  // unit, the cone's axis

@@ -39,8 +39,10 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
   const VkFormat format = fp16 ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
   const std::string name = kind + "-moments";
+  const std::string sized_by = (sun ? std::string("shadows.resolution") : "[[" + kind + "]] resolution") +
+                               " = " + std::to_string(resolution_) + " with the evsm2 filter";
   moments_x_ = r.make_image(name + "-x", gpu::ImageKind::image_2d_array, format, resolution_,
-                            resolution_, layers_, usage);
+                            resolution_, layers_, usage, 1, sized_by);
   gpu::Image& out = sun ? r.sun_moments : spots ? r.spot_moments : r.point_moments;
   const bool cubes = source == MomentSource::points;
   // shadows.evsm_mips: the sun's moments get a full chain, blitted down from level 0.
@@ -52,7 +54,7 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
   }
   out = r.make_image(name, cubes ? gpu::ImageKind::cube_array : gpu::ImageKind::image_2d_array,
                      format, resolution_, resolution_, layers_, usage,
-                     mips_ ? gpu::full_mip_count(resolution_, resolution_) : 1u);
+                     mips_ ? gpu::full_mip_count(resolution_, resolution_) : 1u, sized_by);
   if (r.linear_clamp.handle() == VK_NULL_HANDLE) {  // shared by the sun's and the points' passes
     gpu::SamplerDesc linear;
     linear.filter = VK_FILTER_LINEAR;

@@ -80,10 +80,15 @@ struct FrameResources {
   VkDescriptorSet mask_set = VK_NULL_HANDLE;
   PackedFrame packed;  // this frame's GPU data (pack_frame)
 
-  // A render target or shadow map, listed in the build report.
+  // A render target or shadow map, listed in the build report. Before anything is created it is
+  // checked against the device: the format's limits for this usage (extent, layers, resource
+  // size), cube sizes, and the device-local memory all images so far leave. An image beyond
+  // them is an error naming `sized_by` (the scene key and value that sized it, e.g.
+  // "shadows.resolution = 16384"; empty: the render size), the image and the limit.
   gpu::Image make_image(const std::string& name, gpu::ImageKind kind, VkFormat format, uint32_t w,
                         uint32_t h, uint32_t layers, VkImageUsageFlags usage,
-                        uint32_t mip_levels = 1);
+                        uint32_t mip_levels = 1, const std::string& sized_by = {});
+  uint64_t image_bytes = 0;  // every image made so far
   // A pipeline in the program registry: a shader edit rebuilds exactly the pipelines whose
   // sources (or their includes) read the edited file.
   void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,

@@ -1,3 +1,4 @@
+#include <cstdio>
 // What the passes share: FrameResources' build helpers and the recording helpers.
 
 #include <penumbra/gpu/check.hpp>
@@ -37,9 +38,74 @@ void viewport(VkCommandBuffer cmd, uint32_t w, uint32_t h) {
 
 }  // namespace
 
+namespace {
+
+std::string bytes_text(double bytes) {
+  char text[32];
+  if (bytes >= 1024.0 * 1024 * 1024)
+    std::snprintf(text, sizeof text, "%.2f GiB", bytes / (1024.0 * 1024 * 1024));
+  else
+    std::snprintf(text, sizeof text, "%.1f MiB", bytes / (1024.0 * 1024));
+  return text;
+}
+
+}  // namespace
+
 gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind kind, VkFormat format,
                                       uint32_t w, uint32_t h, uint32_t layers,
-                                      VkImageUsageFlags usage, uint32_t mip_levels) {
+                                      VkImageUsageFlags usage, uint32_t mip_levels,
+                                      const std::string& sized_by) {
+  // ---- what the device allows, before anything is created ----
+  const std::string what =
+      (sized_by.empty() ? "render size " + std::to_string(width) + "x" + std::to_string(height) +
+                              " (render.width, render.height or --size)"
+                        : sized_by) +
+      ": the " + name + " image (" + std::to_string(w) + "x" + std::to_string(h) +
+      (layers > 1 ? "x" + std::to_string(layers) : "") + " " + format_name(format) + ")";
+  const bool cube = kind == gpu::ImageKind::cube || kind == gpu::ImageKind::cube_array;
+  VkImageFormatProperties fp{};
+  const VkResult supported = vkGetPhysicalDeviceImageFormatProperties(
+      ctx.physical_device(), format, VK_IMAGE_TYPE_2D, VK_IMAGE_TILING_OPTIMAL, usage,
+      cube ? VK_IMAGE_CREATE_CUBE_COMPATIBLE_BIT : 0, &fp);
+  const std::string device = "device " + ctx.info().name;
+  if (supported != VK_SUCCESS)
+    throw Error(what + ": " + device + " cannot make such an image (format and usage)");
+  const auto& limits = ctx.info().limits;
+  if (w > fp.maxExtent.width || h > fp.maxExtent.height) {
+    throw Error(what + " is larger than " + device + " allows for it (" +
+                std::to_string(fp.maxExtent.width) + "x" + std::to_string(fp.maxExtent.height) +
+                ")");
+  }
+  if (cube && w > limits.maxImageDimensionCube) {
+    throw Error(what + ": cube faces are at most " + std::to_string(limits.maxImageDimensionCube) +
+                " on " + device + " (maxImageDimensionCube)");
+  }
+  if (layers > fp.maxArrayLayers) {
+    throw Error(what + " has " + std::to_string(layers) + " layers; " + device + " allows " +
+                std::to_string(fp.maxArrayLayers) + " (maxArrayLayers)");
+  }
+  double bytes = 0;
+  for (uint32_t m = 0; m < mip_levels; ++m) {
+    bytes += double(std::max(1u, w >> m)) * double(std::max(1u, h >> m)) * layers *
+             gpu::format_texel_size(format);
+  }
+  if (bytes > double(fp.maxResourceSize)) {
+    throw Error(what + " needs " + bytes_text(bytes) + "; " + device + " allows " +
+                bytes_text(double(fp.maxResourceSize)) + " per image (maxResourceSize)");
+  }
+  VkPhysicalDeviceMemoryProperties mp{};
+  vkGetPhysicalDeviceMemoryProperties(ctx.physical_device(), &mp);
+  VkDeviceSize heap = 0;
+  for (uint32_t i = 0; i < mp.memoryHeapCount; ++i)
+    if (mp.memoryHeaps[i].flags & VK_MEMORY_HEAP_DEVICE_LOCAL_BIT)
+      heap = std::max(heap, mp.memoryHeaps[i].size);
+  if (heap > 0 && double(image_bytes) + bytes > double(heap)) {
+    throw Error(what + " needs " + bytes_text(bytes) + " on top of " +
+                bytes_text(double(image_bytes)) + " of images already made; " + device +
+                " has " + bytes_text(double(heap)) + " of device memory");
+  }
+  image_bytes += uint64_t(bytes);
+
   gpu::ImageDesc d;
   d.kind = kind;
   d.format = format;

@@ -76,7 +76,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
   if (r.req.sun_shadows) {
     const uint32_t res = r.scene.shadows.resolution, n = r.req.cascades;
     sun_map = r.make_image("sun-shadow-map", gpu::ImageKind::image_2d_array, kDepthFormat, res, res,
-                           n, kMapUsage);
+                           n, kMapUsage, 1, "shadows.resolution = " + std::to_string(res));
     sun_ubo = gpu::Buffer(r.ctx, sizeof(shadow::ShadowGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
     v.name = "sun-shadow";
@@ -96,7 +96,9 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     for (const auto& s : r.scene.spots)
       if (s.shadows) res = std::max(res, s.resolution);
     spot_maps = r.make_image("spot-shadow-maps", gpu::ImageKind::image_2d_array, kDepthFormat, res,
-                             res, n, kMapUsage);
+                             res, n, kMapUsage, 1,
+                             "[[spot]] resolution = " + std::to_string(res) + " (" +
+                                 std::to_string(n) + " shadowed spot light(s))");
     spot_ubo = gpu::Buffer(r.ctx, sizeof(shadow::SpotShadowGpu) * kMaxSpotLights,
                            VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
@@ -118,7 +120,9 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
       if (p.shadows) res = std::max(res, p.resolution);
     // One cube array: the forward pass indexes it by layer, not by descriptor.
     point_cubes = r.make_image("point-shadow-cubes", gpu::ImageKind::cube_array, kDepthFormat, res,
-                               res, 6 * n, kMapUsage);
+                               res, 6 * n, kMapUsage, 1,
+                               "[[point]] resolution = " + std::to_string(res) + " (" +
+                                   std::to_string(n) + " shadowed point light(s))");
     point_ubo = gpu::Buffer(r.ctx, sizeof(shadow::PointShadowGpu) * kMaxPointLights,
                             VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
