@@ -62,6 +62,15 @@ void flip_winding(Mesh& mesh) {
 // normals when the file had none.
 void finish_mesh(Mesh& mesh, const fs::path& file, bool has_normals) {
   if (mesh.indices.empty()) fail(file, "contains no triangles");
+  // Every vertex, not only the bounds: min/max may skip a NaN.
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    const glm::vec3 p = mesh.vertices[i].position;
+    if (!std::isfinite(p.x) || !std::isfinite(p.y) || !std::isfinite(p.z)) {
+      fail(file, "vertex " + std::to_string(i) + " has a non-finite position (" +
+                     std::to_string(p.x) + ", " + std::to_string(p.y) + ", " +
+                     std::to_string(p.z) + ")");
+    }
+  }
   update_bounds(mesh);
   if (mesh.bounds.empty() ||
       !std::isfinite(mesh.bounds.min.x + mesh.bounds.min.y + mesh.bounds.min.z + mesh.bounds.max.x +
@@ -75,6 +84,27 @@ void finish_mesh(Mesh& mesh, const fs::path& file, bool has_normals) {
   } else {
     compute_normals(mesh);
   }
+}
+
+// A mesh file's bytes: a regular file (not a FIFO, a device or a directory) of at most
+// kMaxMeshFileBytes, read whole.
+constexpr std::uintmax_t kMaxMeshFileBytes = std::uintmax_t(1) << 30;
+
+std::string read_mesh_file(const fs::path& file) {
+  std::error_code ec;
+  if (!fs::is_regular_file(file, ec)) fail(file, "is not a regular file");
+  const std::uintmax_t size = fs::file_size(file, ec);
+  if (ec) fail(file, "cannot be read: " + ec.message());
+  if (size > kMaxMeshFileBytes) {
+    fail(file, "is " + std::to_string(size >> 20) + " MiB; mesh files are at most " +
+                   std::to_string(kMaxMeshFileBytes >> 20) + " MiB");
+  }
+  std::ifstream in(file, std::ios::binary);
+  if (!in) fail(file, "cannot be opened");
+  std::string bytes(size, '\0');
+  in.read(bytes.data(), std::streamsize(size));
+  if (in.gcount() != std::streamsize(size)) fail(file, "read error");
+  return bytes;
 }
 
 // ---- OBJ -------------------------------------------------------------------------------------
@@ -97,9 +127,10 @@ Mesh load_obj(const fs::path& file) {
   tinyobj::ObjReaderConfig config;
   config.triangulate = true;
   config.vertex_color = false;
-  config.mtl_search_path = file.parent_path().string();
   tinyobj::ObjReader reader;
-  if (!reader.ParseFromFile(file.string(), config)) {
+  // Penumbra takes no materials from an OBJ (scene files assign them), so `mtllib` files are
+  // never opened: a FIFO or /dev/zero named there cannot block or fill memory.
+  if (!reader.ParseFromString(read_mesh_file(file), std::string(), config)) {
     std::string message = reader.Error();
     while (!message.empty() && std::isspace(static_cast<unsigned char>(message.back()))) {
       message.pop_back();
@@ -323,12 +354,8 @@ class ThreeDsReader {
 };
 
 Mesh load_3ds(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  if (!in) fail(file, "cannot be opened");
-  std::vector<unsigned char> data((std::istreambuf_iterator<char>(in)),
-                                  std::istreambuf_iterator<char>());
-  if (in.bad()) fail(file, "read error");
-  Mesh mesh = ThreeDsReader(file, std::move(data)).read();
+  const std::string bytes = read_mesh_file(file);
+  Mesh mesh = ThreeDsReader(file, std::vector<unsigned char>(bytes.begin(), bytes.end())).read();
   finish_mesh(mesh, file, /*has_normals=*/false);
   return mesh;
 }

@@ -480,6 +480,12 @@ std::optional<double> parse_number(std::string_view text) {
   char* end = nullptr;
   const double x = std::strtod(s.c_str(), &end);
   if (s.empty() || end != s.c_str() + s.size() || !std::isfinite(x)) return std::nullopt;
+  // As the scene file reader: the value must survive being stored as a 32-bit float.
+  const float stored = static_cast<float>(x);
+  if (!std::isfinite(stored) ||
+      (x != 0.0 && (stored == 0.0f || std::fpclassify(stored) == FP_SUBNORMAL))) {
+    return std::nullopt;
+  }
   return x;
 }
 

@@ -357,7 +357,21 @@ class Reader {
     if (!std::isfinite(v)) {
       fail_at(&node, name(key) + element + " = " + describe(node) + " is not finite");
     }
+    // The renderer keeps numbers as 32-bit floats: one that overflows, becomes 0 or loses its
+    // normal precision there is an error, and the range holds for the value as it is stored.
+    const float stored = static_cast<float>(v);
+    if (!std::isfinite(stored) ||
+        (v != 0.0 && (stored == 0.0f || std::fpclassify(stored) == FP_SUBNORMAL))) {
+      fail_at(&node, name(key) + element + " = " + describe(node) +
+                         " does not fit a 32-bit float (0, or a magnitude from 1.2e-38 to "
+                         "3.4e38)");
+    }
     if (!range.contains(v)) fail_range(key, node, "must be " + range.text());
+    if (!range.contains(double(stored))) {
+      fail_range(key, node,
+                 "must be " + range.text() + " (as a 32-bit float it is " +
+                     format_number(double(stored)) + ")");
+    }
     return v;
   }
 

@@ -2,6 +2,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <sys/stat.h>
 
 #include <algorithm>
 #include <cmath>
@@ -361,6 +362,43 @@ class TempDir {
 std::string read_bytes(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// A non-finite vertex anywhere (not only where the bounds would show it) is an error.
+TEST(LoadMesh, ANonFiniteVertexIsAnErrorNamingIt) {
+  TempDir dir;
+  std::string cube = read_bytes(kModels / "cube.3ds");
+  const std::size_t vertices = cube.find(std::string("\x10\x41", 2));  // the vertex list chunk
+  ASSERT_NE(vertices, std::string::npos);
+  // chunk id (2) + length (4) + count (2), then x, y, z floats: vertex 2's y.
+  const std::size_t at = vertices + 8 + 2 * 12 + 4;
+  const std::string nan("\x00\x00\xc0\x7f", 4);
+  cube.replace(at, 4, nan);
+  const fs::path file = dir.write("nan.3ds", cube);
+  const std::string e = error_of([&] { load_mesh(file); });
+  EXPECT_THAT(e, HasSubstr(file.string()));
+  EXPECT_THAT(e, HasSubstr("vertex 2 has a non-finite position"));
+  const fs::path obj = dir.write("nan.obj", "v 0 0 0\nv 1 0 0\nv 0 1e39 0\nf 1 2 3\n");  // inf as a float
+  EXPECT_THAT(error_of([&] { load_mesh(obj); }), HasSubstr("non-finite position"));
+}
+
+// An OBJ's mtllib is never opened (scene files assign materials): a FIFO or /dev/zero there
+// neither blocks nor fills memory, and the mesh loads.
+TEST(LoadMesh, MtllibIsNeverOpenedSoAFifoOrDevZeroCannotHang) {
+  TempDir dir;
+  ASSERT_EQ(::mkfifo((dir.path() / "fifo.mtl").c_str(), 0600), 0);
+  fs::create_symlink("/dev/zero", dir.path() / "zero.mtl");
+  for (const std::string lib : {"fifo.mtl", "zero.mtl"}) {
+    const fs::path obj = dir.write("m-" + lib + ".obj", "mtllib " + lib +
+                                                           "\nv 0 0 0\nv 1 0 0\nv 0 1 0\n"
+                                                           "usemtl stone\nf 1 2 3\n");
+    const Mesh m = load_mesh(obj);
+    EXPECT_EQ(m.indices.size(), 3u) << lib;
+  }
+  // The mesh file itself must be a regular file.
+  ASSERT_EQ(::mkfifo((dir.path() / "mesh.obj").c_str(), 0600), 0);
+  EXPECT_THAT(error_of([&] { load_mesh(dir.path() / "mesh.obj"); }),
+              HasSubstr("is not a regular file"));
 }
 
 TEST(LoadMesh, ErrorsNameTheFile) {

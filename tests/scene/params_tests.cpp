@@ -204,6 +204,32 @@ TEST(Params, OutOfRangeValuesAreRejectedWithFileLineAndKey) {
   EXPECT_GE(checked, 35);
 }
 
+// Numbers that a double holds but a 32-bit float does not (they overflow to inf, become 0 or a
+// denormal) are refused in files (naming file:line and key) and in set, for every numeric key.
+TEST(Params, NumbersThatDoNotFitAFloatAreRejected) {
+  int checked = 0;
+  for (const Param& p : params()) {
+    if (p.type != ParamType::number && p.type != ParamType::vec3) continue;
+    SCOPED_TRACE(std::string(p.key));
+    for (const std::string v : {"1e39", "-1e39", "1e-50", "-5e-324", "1e-39"}) {
+      const std::string value = p.type == ParamType::vec3 ? "[" + v + ", 0, 0]" : v;
+      const std::string text = file_of(p, value);
+      const std::string message = error_of(text);
+      EXPECT_THAT(message, HasSubstr("params.toml:")) << v;
+      EXPECT_THAT(message, HasSubstr(p.custom_read ? "direction" : std::string(p.name()))) << v;
+      if (p.settable()) {
+        const std::string set_text = p.type == ParamType::vec3 ? v + ",0,0" : v;
+        EXPECT_THAT(set_error(std::string(p.key), set_text), HasSubstr(std::string(p.key))) << v;
+      }
+    }
+    ++checked;
+  }
+  EXPECT_GE(checked, 20);
+  // The message says why for an in-range-looking value.
+  EXPECT_THAT(error_of(file_of(param("camera.near"), "1e-50")),
+              HasSubstr("does not fit a 32-bit float"));
+}
+
 TEST(Params, CrossKeyChecksHoldInFilesAndSets) {
   EXPECT_THAT(
       error_of("[shadows]\npcss_min_filter_texels = 8\npcss_max_filter_texels = 4\n" + kBox),
