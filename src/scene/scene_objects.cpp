@@ -376,7 +376,13 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
   const std::uint32_t material = builder.material(r);
   if (!r.has("count")) r.missing("count");
   if (!r.has("radius")) r.missing("radius");
-  const auto count = static_cast<std::uint32_t>(*r.opt_integer("count", 1, 100000));
+  const auto count = static_cast<std::uint32_t>(*r.opt_integer("count", 1, kMaxInstances));
+  if (scene.instances.size() + count > kMaxInstances) {
+    r.fail_key("count", std::to_string(count) + " more instances would make " +
+                            std::to_string(scene.instances.size() + count) +
+                            "; a scene has at most " + std::to_string(kMaxInstances) +
+                            " (each is a draw in every pass)");
+  }
   const auto seed = static_cast<std::uint64_t>(
       r.opt_integer("seed", 0, std::numeric_limits<std::int64_t>::max()).value_or(1));
   const glm::dvec3 center = r.opt_vec<3>("center").value_or(glm::dvec3(0.0));
@@ -415,7 +421,12 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
     const Placed sphere{glm::dvec3(b.center()), 0.5 * glm::length(glm::dvec3(b.size()))};
     if (glm::length(sphere.position - center) > sphere.radius) placed.push_back(sphere);
   }
-  const bool avoid_overlap = count + placed.size() <= 4000;
+  // Bounded work: overlap is avoided for fields of up to 4000 instances, until an instance finds
+  // no free spot in 64 tries (the field is full) or 2·10^7 distance tests have been made; the
+  // rest are placed where they fall. The same seed still gives the same field.
+  bool avoid_overlap = count + placed.size() <= 4000;
+  std::uint64_t tests = 0;
+  constexpr std::uint64_t kMaxTests = 20'000'000;
   for (std::uint32_t i = 0; i < count; ++i) {
     const double scale = scale_range.x + (scale_range.y - scale_range.x) * random.uniform();
     const double bounding = unit_radius * scale;
@@ -432,6 +443,7 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
       bool ok = glm::length(offset) >= inner;
       if (ok && avoid_overlap) {
         for (const Placed& p : placed) {
+          ++tests;
           if (glm::length(p.position - position) < p.radius + bounding) {
             ok = false;
             break;
@@ -439,6 +451,8 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
         }
       }
       if (ok) break;
+      if (attempt == 63 || tests > kMaxTests) avoid_overlap = false;
+      if (!avoid_overlap && glm::length(offset) >= inner) break;
     }
     placed.push_back({position, bounding});
     // A uniformly random rotation (Shoemake).

@@ -939,5 +939,19 @@ TEST(SceneFile, ANameThatIsAPathIsRefused) {
   EXPECT_EQ(parse("name = \"indoor-2.b_x\"\n" + kBox).name, "indoor-2.b_x");
 }
 
+// Scatters that could not finish: a count past the scene's instance budget is an error at its
+// line; a dense field (3,999 boxes in a 1 cm ball, where no instance finds a free spot) is
+// placed with bounded work instead of trying every pair 64 times.
+TEST(SceneFile, ScatterCountsAreBoundedAndADenseFieldStillLoads) {
+  const std::string big = kBox + "[[scatter]]\nmesh = \"box\"\ncount = 100000\nradius = 10\n";
+  EXPECT_THAT(error_of(big), HasSubstr(at(big, "count = 100000") + "[[scatter]] #1 count"));
+  std::string many = kBox;
+  for (int i = 0; i < 3; ++i) many += "[[scatter]]\nmesh = \"box\"\ncount = 9000\nradius = 10\n";
+  const std::string e = error_of(many);
+  EXPECT_THAT(e, HasSubstr("would make 27001; a scene has at most 20000")) << e;
+  const Scene dense = parse(kBox + "[[scatter]]\nmesh = \"box\"\ncount = 3999\nradius = 0.01\n");
+  EXPECT_EQ(dense.instances.size(), 4000u);
+}
+
 }  // namespace
 }  // namespace penumbra::scene
