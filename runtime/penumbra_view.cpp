@@ -123,7 +123,8 @@ void usage() {
       "                V / F cycle the view / filter, R resets the camera, Esc closes\n"
       "  --exit-after-frames  window mode: close after --frames N presented frames\n"
       "  --no-ui       window mode without the parameter panel (Dear ImGui)\n"
-      "  --out         where PNGs and timings go (default out/<scene>)\n"
+      "  --out         where PNGs and timings go (default out/<scene name>; an existing\n"
+      "                directory is reused and its files of the same names replaced)\n"
       "  --view        %s (default: lit, then every debug view)\n"
       "  --filter      %s (default: the scene's)\n"
       "  --set         override a parameter-table key after loading, e.g.\n"
@@ -469,8 +470,16 @@ int run(int argc, char** argv) {
   std::printf("\nbuilt for this scene (%.0f ms):\n%s", build_ms,
               renderer.built().to_string().c_str());
 
+  // out/<scene name> unless --out says; an existing directory is reused (its PNGs and
+  // timings.csv are replaced, other files stay), which the output says.
   const fs::path out = o.out.empty() ? fs::path("out") / scene.name : o.out;
-  fs::create_directories(out);
+  std::error_code out_ec;
+  const bool out_existed = fs::exists(out, out_ec);
+  if (out_existed && !fs::is_directory(out, out_ec))
+    throw Error((o.out.empty() ? "out/" + scene.name : "--out " + out.string()) +
+                ": exists and is not a directory");
+  fs::create_directories(out, out_ec);
+  if (out_ec) throw Error("cannot create the output directory " + out.string() + ": " + out_ec.message());
 
   // Frames for timing, in the scene's own view.
   std::map<std::string, std::vector<double>> samples;
@@ -516,7 +525,9 @@ int run(int argc, char** argv) {
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
   penumbra::write_file_atomic(out / "timings.csv", csv.str());
-  std::printf("\nwrote:\n");
+  std::printf("\nwrote%s:\n",
+              out_existed ? " (into an existing directory: files of these names were replaced)"
+                          : "");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());
   std::fflush(stdout);

@@ -223,5 +223,21 @@ TEST(ViewFlags, OutOfRangeValuesAndADirectoryScriptAreErrors) {
   }
 }
 
+// --out into an existing directory reuses it and says so; --out naming a file is an error.
+TEST(ViewFlags, AnExistingOutputDirectoryIsReusedAndSaidSo) {
+  TempTree tree(false);
+  const fs::path out = tree.root() / "out";
+  auto r = view("--size 160x90 --frames 1 --view lit --out " + out.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, Not(HasSubstr("into an existing directory")));
+  r = view("--size 160x90 --frames 1 --view lit --out " + out.string());
+  ASSERT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("wrote (into an existing directory"));
+  testing::write_text(tree.root() / "file", "x");
+  r = view("--size 160x90 --frames 1 --view lit --out " + (tree.root() / "file").string());
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("exists and is not a directory"));
+}
+
 }  // namespace
 }  // namespace penumbra
