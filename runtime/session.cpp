@@ -45,7 +45,16 @@ std::vector<std::string> short_names(const std::vector<std::string>& names) {
 Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
     : ctx_(ctx),
       options_(std::move(options)),
-      shader_dir_(options_.shader_dir.empty() ? render::default_shader_dir() : options_.shader_dir),
+      // Absolute and canonical: the watcher's events, the registry's dependencies and a
+      // script's file arguments then name the same file the same way, whatever the working
+      // directory and however --shader-dir was written (relative, with a symlink).
+      shader_dir_([&] {
+        std::error_code ec;
+        const fs::path dir =
+            options_.shader_dir.empty() ? render::default_shader_dir() : options_.shader_dir;
+        const fs::path canonical = fs::weakly_canonical(fs::absolute(dir, ec), ec);
+        return canonical.empty() ? dir : canonical;
+      }()),
       width_(options_.width),
       height_(options_.height) {
   if (!options_.log) {

@@ -239,5 +239,28 @@ TEST(ViewFlags, AnExistingOutputDirectoryIsReusedAndSaidSo) {
   EXPECT_THAT(r.output, HasSubstr("exists and is not a directory"));
 }
 
+// A relative --shader-dir (here "shaders", run from the tree's root) reloads like an absolute
+// one: the edit is seen as the file the pipelines read, not "not reloaded in 5000 ms".
+TEST(ScriptEndToEnd, ARelativeShaderDirReloads) {
+  TempTree tree(true);
+  const fs::path script = tree.root() / "relative.txt";
+  testing::write_text(script,
+                      "scene default\nsize 160x90\nset shadows.resolution 512\nrender\n"
+                      "replace render/tonemap.comp \"frame.ambient.w;\" \"frame.ambient.w * 0.5;\"\n"
+                      "expect_reload_ok\nexpect_rebuilt tonemap\nquit\n");
+  const std::string cmd = "cd " + tree.root().string() + " && " + PENUMBRA_VIEW_EXE +
+                          " --headless --shader-dir " +
+                          fs::relative(tree.shaders(), tree.root()).string() + " --script " +
+                          script.string() + " 2>&1";
+  std::string output;
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  char buf[512];
+  while (fgets(buf, sizeof buf, p)) output += buf;
+  EXPECT_EQ(pclose(p), 0) << output;
+  EXPECT_THAT(output, HasSubstr("[reload] rebuilt: tonemap"));
+  EXPECT_THAT(output, Not(HasSubstr("not reloaded")));
+}
+
 }  // namespace
 }  // namespace penumbra
