@@ -1,6 +1,7 @@
 #include "session.hpp"
 
 #include <algorithm>
+#include <set>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -268,11 +269,14 @@ ReloadRecord Session::reload(const std::vector<fs::path>& files) {
 std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeout,
                                                  const std::optional<fs::path>& file) {
   if (!watcher_) throw Error("wait_reload: this session has no watcher");
-  std::optional<fs::path> want;
+  // The file as written and as canonical: a change to a file that is (or became) a symlink is
+  // reported under the name the watcher saw.
+  std::set<fs::path> want;
   if (file) {
     std::error_code ec;
     const fs::path abs = file->is_absolute() ? *file : shader_dir_ / *file;
-    want = fs::weakly_canonical(abs, ec);
+    want.insert(abs.lexically_normal());
+    want.insert(fs::weakly_canonical(abs, ec));
   }
   const auto deadline = Clock::now() + timeout;
   for (;;) {
@@ -284,9 +288,10 @@ std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeo
     ReloadRecord rec = apply(changes);
     if (!rec.result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
     reloads_.push_back(rec);
-    const bool match = want ? std::any_of(changes.begin(), changes.end(),
-                                          [&](const FileChange& c) { return c.path == *want; })
-                            : rec.relevant();
+    const bool match =
+        !want.empty() ? std::any_of(changes.begin(), changes.end(),
+                                    [&](const FileChange& c) { return want.count(c.path) > 0; })
+                      : rec.relevant();
     if (!match) continue;
     const size_t index = reloads_.size() - 1;
     render(1);

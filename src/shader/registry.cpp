@@ -97,8 +97,15 @@ std::vector<std::string> names_in(const std::string& change) {
 ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
                                      const std::function<void()>& before_first_create) {
   ReloadResult result;
+  // Each changed file as the dependencies name it (canonical), and as it was written: a file
+  // that became a symlink (to /dev/zero, say) canonicalizes elsewhere, yet the programs that
+  // read it must see the change and report it.
   std::set<fs::path> files;
-  for (const auto& f : changed_files) files.insert(fs::weakly_canonical(f));
+  for (const auto& f : changed_files) {
+    std::error_code ec;
+    files.insert(fs::weakly_canonical(f));
+    files.insert(fs::absolute(f, ec).lexically_normal());
+  }
 
   // 1. Recompile and check every program the change reaches; create nothing yet.
   struct Pending {

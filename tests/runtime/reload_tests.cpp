@@ -196,6 +196,32 @@ TEST_F(ReloadTest, RemovingASharedStructMemberSwapsNothing) {
   EXPECT_EQ(s->pixels(), before);
 }
 
+// A shader file replaced by a symlink to /dev/zero: the pipelines that read it report an error
+// naming it (nothing hangs reading an endless file), the image stays, and putting the file back
+// reloads cleanly.
+TEST_F(ReloadTest, AFileReplacedByASymlinkToDevZeroIsAnErrorNotAHang) {
+  auto s = start();
+  const auto before = s->pixels();
+  const fs::path noise = shader("penumbra/noise.glsl");
+  const std::string good = testing::read_text(noise);
+  const fs::path link = noise.parent_path() / ".noise.link";
+  fs::create_symlink("/dev/zero", link);
+  fs::rename(link, noise);  // an atomic swap, as an editor's save
+  const auto rec = s->wait_reload(kTimeout, noise);
+  ASSERT_TRUE(rec) << "the change to a file that became a symlink must be seen";
+  EXPECT_TRUE(rec->result.rebuilt.empty());
+  EXPECT_FALSE(rec->result.failed.empty());
+  EXPECT_THAT(s->error_text(), HasSubstr("noise.glsl")) << s->error_text();
+  s->render();
+  EXPECT_EQ(s->pixels(), before);
+  fs::remove(noise);
+  testing::write_text(noise, good);
+  const auto back = s->wait_reload(kTimeout, noise);
+  ASSERT_TRUE(back);
+  EXPECT_TRUE(back->result.ok()) << s->error_text();
+  EXPECT_EQ(s->pixels(), before);
+}
+
 TEST_F(ReloadTest, TheFixAfterABrokenEditGivesTheImageOfAColdStart) {
   auto s = start();
   const auto original = s->pixels();
