@@ -1,0 +1,316 @@
+// A seeded fuzzer of the shipped scenes and of shader edits, bounded in time: every mutated
+// scene either loads (and then builds and renders a small frame) or fails with an error that
+// names file:line or key = value; every shader edit either reloads or fails naming file:line;
+// nothing crashes, no case runs past its bound (a watchdog aborts naming it), the validation
+// layer stays silent, and after every edit is undone the image equals a cold start bit for bit.
+//
+// PENUMBRA_FUZZ_SEED (default 1) picks the cases, PENUMBRA_FUZZ_SECONDS (default 45) bounds each
+// of the two parts. A failure prints the seed and the case: rerun with the same seed to repeat.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstdio>
+#include <cstdlib>
+#include <mutex>
+#include <penumbra/core/error.hpp>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <random>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include "temp_tree.hpp"
+
+namespace penumbra {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using testing::GpuTest;
+using testing::TempTree;
+
+uint64_t env_number(const char* name, uint64_t fallback) {
+  const char* v = std::getenv(name);
+  return v != nullptr && *v != '\0' ? std::strtoull(v, nullptr, 10) : fallback;
+}
+
+// Aborts the process, naming the case, when one case runs longer than its bound.
+class Watchdog {
+ public:
+  explicit Watchdog(std::chrono::seconds bound) : bound_(bound), thread_([this] { run(); }) {}
+  ~Watchdog() {
+    {
+      std::lock_guard l(m_);
+      stop_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  void start(std::string what) {
+    std::lock_guard l(m_);
+    what_ = std::move(what);
+    started_ = Clock::now();
+    armed_ = true;
+  }
+  void done() {
+    std::lock_guard l(m_);
+    armed_ = false;
+  }
+
+ private:
+  void run() {
+    std::unique_lock l(m_);
+    while (!stop_) {
+      cv_.wait_for(l, std::chrono::milliseconds(200));
+      if (armed_ && Clock::now() - started_ > bound_) {
+        std::fprintf(stderr, "fuzz: a case ran past %lld s (a hang): %s\n",
+                     static_cast<long long>(bound_.count()), what_.c_str());
+        std::fflush(stderr);
+        std::abort();
+      }
+    }
+  }
+  std::chrono::seconds bound_;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::string what_;
+  Clock::time_point started_;
+  bool armed_ = false, stop_ = false;
+  std::thread thread_;
+};
+
+std::vector<std::string> lines_of(const std::string& text) {
+  std::vector<std::string> out;
+  std::istringstream in(text);
+  for (std::string l; std::getline(in, l);) out.push_back(l);
+  return out;
+}
+std::string joined(const std::vector<std::string>& lines) {
+  std::string s;
+  for (const auto& l : lines) s += l + "\n";
+  return s;
+}
+
+// An error a user can act on: it names the file and line, or the key and the value (or, for a
+// property of the whole scene such as "no geometry", the file).
+bool names_a_place(const std::string& e) {
+  static const std::regex place(
+      R"((\.toml:\d+: )|(\.toml: the scene )|(\.(glsl|comp|vert|frag):\d+)|([a-z_]+\.[a-z_0-9]+ = )|(\]\]? ?[a-z_]+ = )|(render size \d+x\d+))");
+  return std::regex_search(e, place);
+}
+
+const std::vector<std::string> kValues{
+    "1e39",  "-1e39", "1e-50", "0",    "-1",   "1e30",  "nan",     "inf",         "65536",
+    "-0",    "16384", "8192",  "2",    "3",    "1e9",   "4294967296", "9223372036854775807",
+    "\"x\"", "\"\"",  "true",  "[1,2]", "[1e39, 0, 0]", "[0, 0, 0]", "[]", "{}", "0.0001"};
+
+std::string mutate_scene(std::string text, std::mt19937_64& rng) {
+  auto pick = [&](size_t n) { return size_t(rng() % std::max<size_t>(n, 1)); };
+  const int count = 1 + int(rng() % 3);
+  for (int m = 0; m < count; ++m) {
+    std::vector<std::string> lines = lines_of(text);
+    if (lines.empty()) break;
+    const size_t i = pick(lines.size());
+    switch (rng() % 7) {
+      case 0:
+      case 1: {  // a value
+        const size_t eq = lines[i].find(" = ");
+        if (eq != std::string::npos) lines[i] = lines[i].substr(0, eq + 3) + kValues[pick(kValues.size())];
+        break;
+      }
+      case 2:  // a line removed
+        lines.erase(lines.begin() + long(i));
+        break;
+      case 3:  // a line doubled
+        lines.insert(lines.begin() + long(i), lines[i]);
+        break;
+      case 4:  // a typo in a key
+        if (!lines[i].empty() && lines[i].find(" = ") != std::string::npos)
+          lines[i][pick(lines[i].find(" = "))] = char('a' + pick(26));
+        break;
+      case 5: {  // a table repeated (a third light, a second sun)
+        size_t start = i;
+        while (start > 0 && (lines[start].empty() || lines[start][0] != '[')) --start;
+        size_t end = start + 1;
+        while (end < lines.size() && (lines[end].empty() || lines[end][0] != '[')) ++end;
+        std::vector<std::string> block(lines.begin() + long(start), lines.begin() + long(end));
+        for (int k = 0; k < 2; ++k) lines.insert(lines.end(), block.begin(), block.end());
+        break;
+      }
+      default:  // cut short
+        text = joined(lines).substr(0, pick(text.size()));
+        continue;
+    }
+    text = joined(lines);
+  }
+  return text;
+}
+
+class Fuzz : public GpuTest {};
+
+TEST_F(Fuzz, MutatedScenesLoadOrFailNamingFileLineOrKey) {
+  const uint64_t seed = env_number("PENUMBRA_FUZZ_SEED", 1);
+  const auto budget = std::chrono::seconds(env_number("PENUMBRA_FUZZ_SECONDS", 45));
+  std::mt19937_64 rng(seed);
+  Watchdog watchdog(std::chrono::seconds(120));
+  const std::vector<std::string> scenes{"default", "grazing", "indoor", "space"};
+  std::vector<std::pair<std::string, std::string>> originals;
+  for (const auto& s : scenes) {
+    const fs::path file = scene::find_scene(s);
+    originals.emplace_back(file.string(), testing::read_text(file));
+  }
+  const auto end = Clock::now() + budget;
+  int cases = 0, loaded = 0, rendered = 0, refused = 0;
+  while (Clock::now() < end) {
+    const auto& [file, text] = originals[size_t(rng() % originals.size())];
+    const std::string mutated = mutate_scene(text, rng);
+    const std::string what = "seed " + std::to_string(seed) + ", case " + std::to_string(cases) +
+                             " (mutated " + file + "):\n" + mutated;
+    ++cases;
+    watchdog.start(what);
+    try {
+      scene::Scene s = scene::parse_scene(mutated, fs::path(file).filename(),
+                                          fs::path(file).parent_path());
+      ++loaded;
+      // One in eight scenes that load is built and rendered small (building is the slow part).
+      if (rng() % 8 == 0) {
+        render::RendererOptions o;
+        o.width = 64;
+        o.height = 36;
+        render::Renderer r(ctx(), s, o);
+        r.render(0);
+        ++rendered;
+      }
+    } catch (const Error& e) {
+      ++refused;
+      EXPECT_TRUE(names_a_place(e.what())) << "an error that names no file:line or key = value: "
+                                           << e.what() << "\n" << what;
+    }
+    watchdog.done();
+    const auto messages = ctx().validation_sink().take();
+    for (const auto& m : messages) ADD_FAILURE() << gpu::to_string(m) << "\n" << what;
+    if (::testing::Test::HasFailure()) break;  // one case to look at, not a flood
+  }
+  std::printf("[fuzz] scenes: seed %llu, %d cases in %lld s: %d loaded (%d rendered), %d refused\n",
+              static_cast<unsigned long long>(seed), cases,
+              static_cast<long long>(budget.count()), loaded, rendered, refused);
+  EXPECT_GT(cases, 20);
+  EXPECT_GT(refused, 0);
+  EXPECT_GT(loaded, 0);
+}
+
+// One random edit of a shader file the renderer reads.
+std::string mutate_shader(const std::string& text, std::mt19937_64& rng) {
+  std::vector<std::string> lines = lines_of(text);
+  if (lines.empty()) return "garbage";
+  auto pick = [&](size_t n) { return size_t(rng() % std::max<size_t>(n, 1)); };
+  const size_t i = pick(lines.size());
+  switch (rng() % 8) {
+    case 0:
+      lines.erase(lines.begin() + long(i));
+      break;
+    case 1:
+      lines.insert(lines.begin() + long(i), lines[i]);
+      break;
+    case 2:
+      lines.insert(lines.begin() + long(i), "%% not glsl %%");
+      break;
+    case 3:
+      return text.substr(0, pick(text.size()));  // a half-written save
+    case 4: {  // a binding or set moved
+      for (const char* key : {"binding = ", "set = ", "location = "}) {
+        const size_t at = text.find(key, pick(text.size()));
+        if (at == std::string::npos) continue;
+        std::string t = text;
+        t.replace(at + std::string(key).size(), 1, std::to_string(pick(12)));
+        return t;
+      }
+      break;
+    }
+    case 5: {  // a number changed
+      static const std::regex number(R"(\b\d+\.\d+\b)");
+      std::string& l = lines[i];
+      std::smatch m;
+      if (std::regex_search(l, m, number)) l.replace(size_t(m.position(0)), size_t(m.length(0)), "7.5");
+      break;
+    }
+    case 6: {  // a struct member or declaration dropped
+      for (size_t k = 0; k < lines.size(); ++k) {
+        const size_t j = (i + k) % lines.size();
+        if (lines[j].find(';') != std::string::npos && lines[j].find("vec4 ") != std::string::npos) {
+          lines.erase(lines.begin() + long(j));
+          break;
+        }
+      }
+      break;
+    }
+    default:
+      lines[i] += " +";
+  }
+  return joined(lines);
+}
+
+TEST_F(Fuzz, ShaderEditsReloadOrFailNamingFileLineAndUndoingThemGivesTheColdImage) {
+  const uint64_t seed = env_number("PENUMBRA_FUZZ_SEED", 1);
+  const auto budget = std::chrono::seconds(env_number("PENUMBRA_FUZZ_SECONDS", 45));
+  std::mt19937_64 rng(seed * 7919 + 1);
+  Watchdog watchdog(std::chrono::seconds(180));
+  TempTree tree(true);
+  scene::Scene s = scene::load_scene(scene::find_scene("default"));
+  s.shadows.resolution = 512;
+  render::RendererOptions o;
+  o.width = 96;
+  o.height = 54;
+  o.shader_dir = tree.shaders();
+  render::Renderer r(ctx(), s, o);
+  r.render(0);
+  const std::vector<uint8_t> cold = r.read_rgba8();
+  std::vector<fs::path> files = r.shader_files();
+  std::sort(files.begin(), files.end());
+  std::map<fs::path, std::string> originals;
+  for (const auto& f : files) originals[f] = testing::read_text(f);
+
+  const auto end = Clock::now() + budget;
+  int cases = 0, rebuilt = 0, failed = 0;
+  while (Clock::now() < end) {
+    const fs::path file = files[size_t(rng() % files.size())];
+    const std::string edited = mutate_shader(originals[file], rng);
+    const std::string what = "seed " + std::to_string(seed) + ", edit " + std::to_string(cases) +
+                             " of " + file.string();
+    ++cases;
+    watchdog.start(what);
+    testing::write_text(file, edited);
+    const auto result = r.reload({file});
+    for (const auto& e : result.errors)
+      EXPECT_TRUE(names_a_place(e)) << "a reload error that names no file:line: " << e << "\n"
+                                    << what;
+    rebuilt += result.rebuilt.empty() ? 0 : 1;
+    failed += result.failed.empty() ? 0 : 1;
+    r.render(0);
+    // Undone: every pipeline reloads, and the image is the cold start's.
+    testing::write_text(file, originals[file]);
+    const auto undo = r.reload({file});
+    EXPECT_TRUE(undo.ok()) << what << ": undoing the edit did not reload: "
+                           << ::testing::PrintToString(undo.errors);
+    r.render(0);
+    EXPECT_EQ(r.read_rgba8(), cold) << what << ": the image after undoing differs from a cold start";
+    watchdog.done();
+    const auto messages = ctx().validation_sink().take();
+    for (const auto& m : messages) ADD_FAILURE() << gpu::to_string(m) << "\n" << what;
+    if (::testing::Test::HasFailure()) break;
+  }
+  std::printf("[fuzz] shader edits: seed %llu, %d edits in %lld s: %d rebuilt something, %d "
+              "refused\n",
+              static_cast<unsigned long long>(seed), cases,
+              static_cast<long long>(budget.count()), rebuilt, failed);
+  EXPECT_GT(cases, 5);
+  EXPECT_GT(failed, 0);
+}
+
+}  // namespace
+}  // namespace penumbra
