@@ -593,7 +593,9 @@ ParamValue parse_value(const Param& p, std::string_view text) {
   switch (p.type) {
     case ParamType::number: {
       const auto x = parse_number(text);
-      if (!x || !p.range.contains(*x)) bad(p, text);
+      // The range holds for the value as it is stored (a 32-bit float), as in scene files.
+      if (!x || !p.range.contains(*x) || !p.range.contains(double(static_cast<float>(*x))))
+        bad(p, text);
       return *x;
     }
     case ParamType::integer: {

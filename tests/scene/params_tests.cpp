@@ -228,6 +228,10 @@ TEST(Params, NumbersThatDoNotFitAFloatAreRejected) {
   // The message says why for an in-range-looking value.
   EXPECT_THAT(error_of(file_of(param("camera.near"), "1e-50")),
               HasSubstr("does not fit a 32-bit float"));
+  // In range as a double, 180 as a float: refused in both places.
+  EXPECT_THAT(error_of(file_of(param("camera.fov_y"), "179.99999999")),
+              HasSubstr("as a 32-bit float it is 180"));
+  EXPECT_THAT(set_error("camera.fov_y", "179.99999999"), HasSubstr("camera.fov_y"));
 }
 
 TEST(Params, CrossKeyChecksHoldInFilesAndSets) {
