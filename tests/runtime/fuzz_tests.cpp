@@ -97,10 +97,11 @@ std::string joined(const std::vector<std::string>& lines) {
 }
 
 // An error a user can act on: it names the file and line, or the key and the value (or, for a
-// property of the whole scene such as "no geometry", the file).
+// property of the whole scene such as "no geometry", or a stage that links without main(), the
+// file: there is no line to name).
 bool names_a_place(const std::string& e) {
   static const std::regex place(
-      R"((\.toml:\d+: )|(\.toml: the scene )|(\.(glsl|comp|vert|frag):\d+)|([a-z_]+\.[a-z_0-9]+ = )|(\]\]? ?[a-z_]+ = )|(render size \d+x\d+))");
+      R"((\.toml:\d+: )|(\.toml: the scene )|(\.(glsl|comp|vert|frag):\d+)|(\.(comp|vert|frag): error: Linking)|([a-z_]+\.[a-z_0-9]+ = )|(\]\]? ?[a-z_]+ = )|(render size \d+x\d+))");
   return std::regex_search(e, place);
 }
 
