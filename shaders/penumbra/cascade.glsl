@@ -176,6 +176,10 @@ int select_cascade_by_containment(vec3 coords[8], int count, float border_texels
 // Returns the finest (first) level in [0, count) whose light view-projection contains position
 // (world_to_shadow_coord, then shadow_coord_in_bounds), or count when none does; coord receives
 // that level's shadow-map coordinate (kShadowCoordOutside when none). count is clamped to [0, 8].
+// Cost: a caller that fills a local mat4[8] per pixel pays for it in the driver's compiler
+// (llvmpipe lowers the dynamic index into selects: ~2 s of LLVM per new shader version). A stage
+// whose matrices sit in a uniform block is better served by the same loop over the block
+// (render/shadow_resolve.comp does that).
 int select_cascade_by_position(vec3 position, mat4 view_proj[8], int count, float border_texels,
                                float resolution, out vec3 coord) {
   int n = clamp(count, 0, kCascadeMaxCount);

@@ -116,11 +116,18 @@ float filter_reach_texels() {
 }
 
 // The finest cascade whose map holds the receiver with the filter's reach; count when none.
+// The library's select_cascade_by_position, reading each matrix from the block in place: handing
+// it a local mat4[8] made llvmpipe lower every dynamic index into selects over 128 floats, about
+// 2 s of LLVM compile on each new version of this shader (docs/hot-reload.md).
 int select_cascade_containing(vec3 p, int count) {
-  mat4 view_proj[8];
-  for (int i = 0; i < 8; ++i) view_proj[i] = shadow.cascades[min(i, max(count - 1, 0))].view_proj;
-  return select_cascade_by_position(p, view_proj, count, filter_reach_texels(),
-                                    float(shadow.counts.z));
+  int n = clamp(count, 0, kCascadeMaxCount);
+  float border = filter_reach_texels();
+  float resolution = float(shadow.counts.z);
+  for (int i = 0; i < n; ++i)
+    if (shadow_coord_in_bounds(world_to_shadow_coord(shadow.cascades[i].view_proj, p), border,
+                               resolution))
+      return i;
+  return n;
 }
 
 // The camera-relative world position seen at screen uv with depth buffer value depth.
