@@ -73,9 +73,9 @@ std::string number(double x) {
 
 std::vector<Target> targets() {
   return {
-      {"penumbra/pcf.glsl", "return pcf_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;",
+      {"penumbra/pcf.glsl", "return penumbra_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;",
        [](long k) {
-         return "return pcf_is_finite(v) ? clamp(v, 0.0, " + number(1.0 - double(k) * 1e-7) +
+         return "return penumbra_is_finite(v) ? clamp(v, 0.0, " + number(1.0 - double(k) * 1e-7) +
                 ") : 1.0;";
        },
        "the clamp ending every PCF filter (included by shadow.glsl and forward.frag)"},

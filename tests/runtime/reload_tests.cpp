@@ -9,6 +9,7 @@
 #include <algorithm>
 #include <chrono>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/params.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <set>
 
@@ -387,6 +388,66 @@ TEST_F(ReloadTest, AParameterThatChangesWhatIsBuiltRebuildsAndKeepsReloading) {
   const auto rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec);
   EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
+}
+
+// The sun resolve is specialized per frame by its filter and by whether the penumbra view is on
+// (a pipeline per set of values, made when a frame first needs it). A filter or view changed
+// between frames must render what a renderer built for it renders, and after a reload the
+// variants made from the old code must go: switching back to one renders the new code.
+TEST_F(ReloadTest, SpecializedVariantsFollowTheFrameAndAReload) {
+  auto s = start();
+  auto fresh = [&](const std::string& filter, const std::string& view) {
+    scene::Scene sc = small_scene("default");
+    scene::set_param(sc, "shadows.filter", filter);
+    scene::set_param(sc, "render.view", view);
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
+    render::Renderer r(ctx(), sc, o);
+    r.render(0);
+    return r.read_rgba8();
+  };
+  for (const auto& [filter, view] : std::vector<std::pair<std::string, std::string>>{
+           {"pcf", "lit"}, {"pcss", "lit"}, {"pcss", "penumbra"}, {"poisson", "lit"}}) {
+    s->set("shadows.filter", filter);
+    s->set("render.view", view);
+    s->render();
+    EXPECT_EQ(s->pixels(), fresh(filter, view)) << filter << ", " << view;
+  }
+  s->set("shadows.filter", "pcf");
+  s->set("render.view", "lit");
+  s->render();
+  const auto pcf_before = s->pixels();
+  s->set("shadows.filter", "hard");
+  s->render();
+  edit("penumbra/pcf.glsl", kSaturate, kLighterShadows);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(s->pixels(), fresh("hard", "lit"));
+  s->set("shadows.filter", "pcf");  // made before the edit: must be made again
+  s->render();
+  EXPECT_NE(s->pixels(), pcf_before);
+  EXPECT_EQ(s->pixels(), fresh("pcf", "lit"));
+}
+
+// The renderer names the constants it specializes; a shader that renames one is refused at the
+// reload, naming the program and the constant, and the last good pipeline keeps rendering.
+TEST_F(ReloadTest, ARenamedSpecializationConstantIsRefused) {
+  auto s = start();
+  const auto before = s->pixels();
+  std::string text = testing::read_text(shader("render/shadow_resolve.comp"));
+  for (size_t at = text.find("kPenumbraView"); at != std::string::npos;
+       at = text.find("kPenumbraView", at + 1))
+    text.replace(at, 13, "kPenumbraMode");
+  testing::write_text(shader("render/shadow_resolve.comp"), text);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_EQ(short_names(rec->result.failed), (std::vector<std::string>{"shadow-resolve"}));
+  EXPECT_THAT(s->error_text(),
+              HasSubstr("program 'shadow-resolve': the renderer specializes constant_id 1 as "
+                        "'kPenumbraView', but the shader calls it 'kPenumbraMode'"));
+  s->render();
+  EXPECT_EQ(s->pixels(), before);
 }
 
 }  // namespace

@@ -70,6 +70,9 @@ int primary_light_slot(const scene::Scene& scene);
 
 // The shader's filter constant (kFilterHard ...) of a scene filter.
 std::uint32_t filter_index(scene::Filter filter);
+// The sun's filter as the frame carries it (FrameGpu::mode.z): the scene's, except that evsm2
+// without its moments (a renderer built for another filter) falls back to pcf.
+std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments);
 
 // Everything the GPU reads for frame `frame_index` of `scene` at width x height.
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,

@@ -190,6 +190,11 @@ glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_
   return glm::mat4(p);
 }
 
+std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments) {
+  const scene::Filter f = scene.shadows.filter;
+  return filter_index(f == scene::Filter::evsm2 && !sun_moments ? scene::Filter::pcf : f);
+}
+
 std::uint32_t filter_index(scene::Filter f) {
   switch (f) {
     case scene::Filter::hard:
@@ -264,13 +269,8 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
                                  sh.evsm_mips ? 1.0f : 0.0f, 0.0f);
   frame.pcss = glm::vec4(sh.pcss_confidence, sh.pcss_search_texels, sh.pcss_min_filter_texels,
                          sh.pcss_max_filter_texels);
-  // evsm2 needs the moments; without them (a renderer built for another filter) the sun
-  // falls back to pcf.
-  const bool moments = sh.filter == scene::Filter::evsm2 && caps.sun_moments;
-  const scene::Filter sun_filter =
-      sh.filter == scene::Filter::evsm2 && !moments ? scene::Filter::pcf : sh.filter;
-  frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u, filter_index(sun_filter),
-                          uint32_t(scene.render.view));
+  frame.mode = glm::uvec4(frame_index, reverse_z ? 1u : 0u,
+                          sun_filter_index(scene, caps.sun_moments), uint32_t(scene.render.view));
   const float max_exponent = sh.evsm_fp16 ? kEvsmMaxExponentFp16 : kEvsmMaxExponentFp32;
   frame.evsm = glm::vec4(std::clamp(sh.evsm_exponent, 0.0f, max_exponent), sh.evsm_min_variance,
                          sh.evsm_bleed_reduction, sh.evsm_fp16 ? 1.0f : 0.0f);

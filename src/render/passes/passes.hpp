@@ -7,6 +7,7 @@
 // path of a frame and where to change what.
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
@@ -130,19 +131,43 @@ std::vector<shader::Define> mask_defines(const FrameResources& r);
 // replaced by the draw's mask texture); binds the mask set (set 1) when there is one.
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
+// A specialization constant a pass sets per frame: its constant_id, its name in the shader
+// (checked against the SPIR-V's reflection when the pipeline is made) and its value.
+struct SpecValue {
+  uint32_t id = 0;
+  const char* name = "";
+  uint32_t value = 0;
+  bool operator<(const SpecValue& o) const { return id != o.id ? id < o.id : value < o.value; }
+};
+using SpecValues = std::vector<SpecValue>;
+using Specialize = std::function<SpecValues(const FrameResources&)>;
+
 // A compute program run once per pixel of the frame (8x8 groups): its layout (set 0 only), its
 // pipeline in the program registry (a reload replaces it) and its descriptor set. The compute
 // passes (the shadow resolves, tonemap) build one and write their resources into set().
+//
+// With `specialize`, the pipeline is specialized by the values it returns for the frame being
+// recorded (the sun resolve: its filter and whether the penumbra view is on), so the driver
+// compiles only the code that frame runs. Each set of values is a pipeline of its own, made
+// the first time a frame needs it and kept until a reload; a reload makes only the one the
+// current frame needs (the others follow when a frame needs them).
 class PerPixelCompute {
  public:
   PerPixelCompute(FrameResources& r, const std::string& name, shader::ProgramSource source,
-                  std::vector<gpu::BindingDesc> bindings);
+                  std::vector<gpu::BindingDesc> bindings, Specialize specialize = {});
   VkDescriptorSet set() const { return set_; }
-  void dispatch(VkCommandBuffer cmd, const FrameResources& r) const;
+  void dispatch(VkCommandBuffer cmd, const FrameResources& r);
+  size_t pipeline_count() const { return pipelines_.size(); }
 
  private:
+  std::unique_ptr<gpu::ComputePipeline> make(const FrameResources& r,
+                                             const std::vector<uint32_t>& spirv,
+                                             const SpecValues& values) const;
+  std::string name_;
   std::unique_ptr<gpu::PipelineLayout> layout_;
-  std::unique_ptr<gpu::ComputePipeline> pipeline_;
+  Specialize specialize_;
+  std::vector<uint32_t> spirv_;  // the running program's
+  std::map<SpecValues, std::unique_ptr<gpu::ComputePipeline>> pipelines_;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
 };
 

@@ -1,7 +1,10 @@
 #include <cstdio>
 // What the passes share: FrameResources' build helpers and the recording helpers.
 
+#include <algorithm>
+#include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
+#include <penumbra/shader/reflection.hpp>
 
 #include "passes.hpp"
 
@@ -208,17 +211,50 @@ void create_mask_textures(FrameResources& r) {
 
 PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
                                  shader::ProgramSource source,
-                                 std::vector<gpu::BindingDesc> bindings)
-    : layout_(std::make_unique<gpu::PipelineLayout>(
-          r.ctx, std::vector<std::vector<gpu::BindingDesc>>{std::move(bindings)})) {
+                                 std::vector<gpu::BindingDesc> bindings, Specialize specialize)
+    : name_(name.substr(0, name.find(' '))),
+      layout_(std::make_unique<gpu::PipelineLayout>(
+          r.ctx, std::vector<std::vector<gpu::BindingDesc>>{std::move(bindings)})),
+      specialize_(std::move(specialize)) {
   r.add_pipeline(name, {std::move(source)}, [this, &r](const shader::Spirvs& spirv) {
-    pipeline_ = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
+    // The variant this frame needs; the others were made from the old code and go (the registry
+    // calls this with the GPU idle).
+    const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
+    auto fresh = make(r, spirv[0], values);
+    pipelines_.clear();
+    pipelines_.emplace(values, std::move(fresh));
+    spirv_ = spirv[0];
   });
   set_ = r.pool.allocate(layout_->set_layout(0));
 }
 
-void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) const {
-  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline_->handle());
+std::unique_ptr<gpu::ComputePipeline> PerPixelCompute::make(const FrameResources& r,
+                                                             const std::vector<uint32_t>& spirv,
+                                                             const SpecValues& values) const {
+  gpu::Specialization spec;
+  if (!values.empty()) {
+    const shader::Reflection refl = shader::reflect(spirv);
+    for (const SpecValue& v : values) {
+      const auto found =
+          std::find_if(refl.spec_constants.begin(), refl.spec_constants.end(),
+                       [&](const shader::SpecConstant& c) { return c.id == v.id; });
+      if (found == refl.spec_constants.end() || found->name != v.name)
+        throw Error("program '" + name_ + "': the renderer specializes constant_id " +
+                    std::to_string(v.id) + " as '" + v.name + "', but the shader " +
+                    (found == refl.spec_constants.end()
+                         ? std::string("declares no such constant")
+                         : "calls it '" + found->name + "'"));
+      spec.set(v.id, v.value);
+    }
+  }
+  return std::make_unique<gpu::ComputePipeline>(r.ctx, spirv, *layout_, std::move(spec));
+}
+
+void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) {
+  const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
+  auto it = pipelines_.find(values);
+  if (it == pipelines_.end()) it = pipelines_.emplace(values, make(r, spirv_, values)).first;
+  vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, it->second->handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_, 0,
                           nullptr);
   vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
