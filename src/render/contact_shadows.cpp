@@ -281,30 +281,48 @@ void ContactShadowPass::create_pipelines() {
     resolve_spirv_ = compiler.compile_file(shader_dir_ / "depth_resolve.comp").spirv;
     march_spirv_ = compiler.compile_file(shader_dir_ / "contact_shadows.comp").spirv;
   }
+  gpu_ = std::make_unique<Gpu>(ctx_, resolve_spirv_, march_spirv_, specialization());
+}
+
+gpu::Specialization ContactShadowPass::specialization() const {
   gpu::Specialization spec;
   spec.set<std::uint32_t>(0, reads_ != ContactDepthReads::nearest_only ? 1u : 0u);
   spec.set<std::uint32_t>(1, reads_ != ContactDepthReads::bilinear_only ? 1u : 0u);
-  gpu_ = std::make_unique<Gpu>(ctx_, resolve_spirv_, march_spirv_, std::move(spec));
+  return spec;
+}
+
+struct ContactShadowPass::Prepared {
+  std::vector<std::uint32_t> march, resolve;
+  std::unique_ptr<Gpu> gpu;  // null when the pass was disabled
+};
+
+std::shared_ptr<ContactShadowPass::Prepared> ContactShadowPass::prepare_spirv(
+    std::vector<std::uint32_t> march_spirv, std::vector<std::uint32_t> resolve_spirv) const {
+  if (march_spirv.empty() || resolve_spirv.empty())
+    throw Error("ContactShadowPass::set_spirv: both stages' SPIR-V are needed");
+  auto p = std::make_shared<Prepared>();
+  p->march = std::move(march_spirv);
+  p->resolve = std::move(resolve_spirv);
+  if (enabled()) p->gpu = std::make_unique<Gpu>(ctx_, p->resolve, p->march, specialization());
+  return p;
+}
+
+void ContactShadowPass::install(const std::shared_ptr<Prepared>& prepared) {
+  given_march_spirv_ = prepared->march;
+  given_resolve_spirv_ = prepared->resolve;
+  if (!enabled()) return;
+  if (!prepared->gpu) {  // enabled since it was prepared
+    create_pipelines();
+    return;
+  }
+  march_spirv_ = given_march_spirv_;
+  resolve_spirv_ = given_resolve_spirv_;
+  gpu_ = std::move(prepared->gpu);
 }
 
 void ContactShadowPass::set_spirv(std::vector<std::uint32_t> march_spirv,
                                   std::vector<std::uint32_t> resolve_spirv) {
-  if (march_spirv.empty() || resolve_spirv.empty())
-    throw Error("ContactShadowPass::set_spirv: both stages' SPIR-V are needed");
-  std::swap(given_march_spirv_, march_spirv);
-  std::swap(given_resolve_spirv_, resolve_spirv);
-  if (!enabled()) return;
-  auto old = std::move(gpu_);
-  try {
-    create_pipelines();
-  } catch (...) {
-    std::swap(given_march_spirv_, march_spirv);
-    std::swap(given_resolve_spirv_, resolve_spirv);
-    resolve_spirv_ = given_resolve_spirv_;
-    march_spirv_ = given_march_spirv_;
-    gpu_ = std::move(old);
-    throw;
-  }
+  install(prepare_spirv(std::move(march_spirv), std::move(resolve_spirv)));
 }
 
 void ContactShadowPass::destroy() {

@@ -691,7 +691,13 @@ std::string format_diagnostic(const CompileError::Diagnostic& diagnostic) {
 // or more), not here.
 Compiler::Compiler(CompileOptions options) : options_(std::move(options)) {}
 
+Compiler::Stats Compiler::stats() const {
+  std::lock_guard lock(*mutex_);
+  return stats_;
+}
+
 void Compiler::clear_cache() {
+  std::lock_guard lock(*mutex_);
   cache_.clear();
 }
 
@@ -786,6 +792,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
     direct.add_field(main_text);
     direct_key = direct.value();
     if (std::optional<DiskEntry> entry = disk_lookup(options_.disk_cache_dir, direct_key)) {
+      std::lock_guard lock(*mutex_);
       ++stats_.cache_hits;
       ++stats_.disk_hits;
       CompiledShader result;
@@ -829,16 +836,19 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   result.notes = sources.notes;
   result.key = hash.value();
 
-  if (const auto it = cache_.find(result.key); it != cache_.end()) {
-    ++stats_.cache_hits;
-    result.spirv = it->second;
-    result.from_cache = true;
-    return result;
+  {
+    std::lock_guard lock(*mutex_);
+    if (const auto it = cache_.find(result.key); it != cache_.end()) {
+      ++stats_.cache_hits;
+      result.spirv = it->second;
+      result.from_cache = true;
+      return result;
+    }
+    ++stats_.compiles;
   }
 
   // Pass 2: the real compile, from the original sources (served from `sources`, not re-read),
   // so that every diagnostic carries its own file and line.
-  ++stats_.compiles;
   ShaderSetup setup(language, main_text, main_name, preamble);
   Includer includer(sources, include_dirs, options_);
   if (!setup.shader.parse(GetDefaultResources(), kDefaultVersion, false, kMessages, includer)) {
@@ -863,7 +873,10 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
     throw CompileError(format_diagnostic(diags[0]), std::move(diags));
   }
 
-  cache_.emplace(result.key, result.spirv);
+  {
+    std::lock_guard lock(*mutex_);
+    cache_.emplace(result.key, result.spirv);
+  }
   if (disk) {
     std::vector<uint64_t> hashes;
     for (const fs::path& dep : result.dependencies) {

@@ -1,6 +1,8 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <functional>
+#include <thread>
 #include <penumbra/core/error.hpp>
 #include <penumbra/shader/registry.hpp>
 
@@ -28,10 +30,18 @@ Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
 }
 
 void ProgramRegistry::add(std::string name, std::vector<ProgramSource> sources, Create create) {
-  Program p{std::move(name), std::move(sources), {}, std::move(create), {}, {}};
+  // One step: everything happens in the install, which the registry calls with the GPU idle.
+  add_prepared(std::move(name), std::move(sources), [create](const Spirvs& spirv) -> Install {
+    return [create, spirv] { create(spirv); };
+  });
+}
+
+void ProgramRegistry::add_prepared(std::string name, std::vector<ProgramSource> sources,
+                                   Prepare prepare) {
+  Program p{std::move(name), std::move(sources), {}, std::move(prepare), {}, {}};
   Spirvs spirv = compile(p.sources, &p.dependencies);
   for (const auto& stage : spirv) p.made_for.push_back(reflect(stage));
-  p.create(spirv);
+  p.prepare(spirv)();
   p.current = std::move(spirv);
   programs_.push_back(std::move(p));
 }
@@ -92,7 +102,50 @@ std::vector<std::string> names_in(const std::string& change) {
   return names;
 }
 
+// Runs body(0) ... body(n - 1), one thread each beyond the first (n is the number of programs
+// one edit reaches: a handful). Every body catches its own errors.
+void parallel_for(size_t n, const std::function<void(size_t)>& body) {
+  std::vector<std::thread> threads;
+  threads.reserve(n > 0 ? n - 1 : 0);
+  for (size_t i = 1; i < n; ++i) threads.emplace_back(body, i);
+  if (n > 0) body(0);
+  for (auto& t : threads) t.join();
+}
+
 }  // namespace
+
+std::string ProgramRegistry::interface_report(const Program& p, const Spirvs& spirv,
+                                              const std::set<fs::path>& deps) const {
+  std::vector<std::string> changes;
+  const std::vector<fs::path> read(deps.begin(), deps.end());
+  for (size_t stage = 0; stage < spirv.size() && stage < p.made_for.size(); ++stage) {
+    std::vector<std::string> stage_changes;
+    try {
+      stage_changes = interface_changes(p.made_for[stage], reflect(spirv[stage]));
+    } catch (const Error& e) {
+      stage_changes = {e.what()};
+    }
+    const fs::path stage_file = shader_dir_ / p.sources[stage].file;
+    for (const std::string& c : stage_changes) {
+      std::string where;
+      const std::vector<std::string> names = names_in(c);
+      for (auto name = names.rbegin(); name != names.rend(); ++name) {  // the new one last
+        // The stage file first, then what it includes.
+        std::vector<fs::path> order{stage_file};
+        order.insert(order.end(), read.begin(), read.end());
+        where = declaration_of(*name, order);
+        if (!where.empty()) break;
+      }
+      changes.push_back((where.empty() ? stage_file.string() : where) + ": " + c);
+    }
+  }
+  if (changes.empty()) return {};
+  std::string message = "program '" + p.name +
+                        "': the edit changes the interface its pipeline was made for (the "
+                        "pipeline layout, vertex input, attachments and dispatch stay as built):";
+  for (const std::string& c : changes) message += "\n  " + c;
+  return message;
+}
 
 ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
                                      const std::function<void()>& before_first_create) {
@@ -107,79 +160,69 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     files.insert(fs::absolute(f, ec).lexically_normal());
   }
 
-  // 1. Recompile and check every program the change reaches; create nothing yet.
+  // 1. Recompile and check every program the change reaches, in parallel; create nothing yet.
   struct Pending {
     Program* program;
     Spirvs spirv;
     std::set<fs::path> deps;
+    std::string error;  // a compile error or the interface changes
+    Install install;
   };
   std::vector<Pending> pending;
   for (auto& p : programs_) {
     const bool affected = std::any_of(files.begin(), files.end(), [&](const fs::path& f) {
       return p.dependencies.count(f) > 0;
     });
-    if (!affected) continue;
-    Pending next{&p, {}, {}};
+    if (affected) pending.push_back(Pending{&p, {}, {}, {}, {}});
+  }
+  parallel_for(pending.size(), [&](size_t i) {
+    Pending& next = pending[i];
+    const Program& p = *next.program;
     try {
       next.spirv = compile(p.sources, &next.deps);
-    } catch (const Error& e) {  // a compile error, or a stage file that cannot be read
-      result.failed.push_back(p.name);
-      result.errors.push_back(e.what());
-      continue;
+      next.error = interface_report(p, next.spirv, next.deps);
+    } catch (const std::exception& e) {  // a compile error, or a stage file that cannot be read
+      next.error = e.what();
     }
-    std::vector<std::string> changes;
-    const std::vector<fs::path> read(next.deps.begin(), next.deps.end());
-    for (size_t stage = 0; stage < next.spirv.size() && stage < p.made_for.size(); ++stage) {
-      std::vector<std::string> stage_changes;
+  });
+  // 2. Make the pipelines of the programs that compiled and kept their interface, in parallel.
+  const bool compiled = std::all_of(pending.begin(), pending.end(),
+                                    [](const Pending& n) { return n.error.empty(); });
+  if (compiled) {
+    parallel_for(pending.size(), [&](size_t i) {
+      Pending& next = pending[i];
       try {
-        stage_changes = interface_changes(p.made_for[stage], reflect(next.spirv[stage]));
-      } catch (const Error& e) {
-        stage_changes = {e.what()};
+        next.install = next.program->prepare(next.spirv);
+      } catch (const std::exception& e) {
+        next.error = e.what();
       }
-      const fs::path stage_file = shader_dir_ / p.sources[stage].file;
-      for (const std::string& c : stage_changes) {
-        std::string where;
-        const std::vector<std::string> names = names_in(c);
-        for (auto name = names.rbegin(); name != names.rend(); ++name) {  // the new one last
-          // The stage file first, then what it includes.
-          std::vector<fs::path> order{stage_file};
-          order.insert(order.end(), read.begin(), read.end());
-          where = declaration_of(*name, order);
-          if (!where.empty()) break;
-        }
-        changes.push_back((where.empty() ? stage_file.string() : where) + ": " + c);
-      }
-    }
-    if (!changes.empty()) {
-      std::string message = "program '" + p.name +
-                            "': the edit changes the interface its pipeline was made for (the "
-                            "pipeline layout, vertex input, attachments and dispatch stay as "
-                            "built):";
-      for (const std::string& c : changes) message += "\n  " + c;
-      result.failed.push_back(p.name);
-      result.errors.push_back(std::move(message));
-      continue;
-    }
-    pending.push_back(std::move(next));
+    });
+  }
+  for (const Pending& n : pending) {
+    if (n.error.empty()) continue;
+    result.failed.push_back(n.program->name);
+    result.errors.push_back(n.error);
   }
   if (!result.failed.empty()) {
-    for (const Pending& n : pending) result.held.push_back(n.program->name);
-    return result;  // all or nothing: every last good pipeline stays
+    // All or nothing: every last good pipeline stays; what was made is dropped unused.
+    for (const Pending& n : pending)
+      if (n.error.empty()) result.held.push_back(n.program->name);
+    return result;
   }
 
-  // 2. Create them all; if one fails, put back those already recreated.
+  // 3. Swap them all in (the GPU idle); if an install fails, put back those already installed.
   if (!pending.empty() && before_first_create) before_first_create();
   for (size_t i = 0; i < pending.size(); ++i) {
     Program& p = *pending[i].program;
     try {
-      p.create(pending[i].spirv);
+      pending[i].install();
     } catch (const Error& e) {
       result.failed.push_back(p.name);
       result.errors.push_back(e.what());
       for (size_t k = 0; k < i; ++k) {
         Program& done = *pending[k].program;
         try {
-          done.create(done.current);
+          done.prepare(done.current)();
           result.held.push_back(done.name);
         } catch (const Error& again) {
           result.failed.push_back(done.name);

@@ -6,7 +6,10 @@
 
 #include <filesystem>
 #include <fstream>
+#include <chrono>
+#include <condition_variable>
 #include <map>
+#include <mutex>
 #include <penumbra/core/error.hpp>
 #include <penumbra/shader/registry.hpp>
 #include <string>
@@ -254,6 +257,66 @@ TEST(ProgramRegistry, IncludesFollowTheEditAndCreateErrorsAreReported) {
   EXPECT_THAT(res.failed, ElementsAre("one"));
   EXPECT_THAT(res.errors, ElementsAre("create failed"));
   EXPECT_THROW(r.add("bad", {{"missing.comp", {}}}, [](const Spirvs&) {}), Error);
+}
+
+// Programs added in two steps: at a reload every program's pipelines are made at once (here a
+// rendezvous that each maker waits at until all three arrived: made one after another, the
+// first would wait alone), and installed only after before_first_create (the GPU idle), each
+// once. A maker that throws installs nothing anywhere and waits for nothing.
+TEST(ProgramRegistry, PreparedProgramsAreMadeInParallelAndInstalledTogether) {
+  Tree t;
+  t.write("lib/shared.glsl", "float shared_value() { return 1.0; }\n");
+  std::vector<std::string> names{"one", "two", "three"};
+  for (const auto& n : names) t.write(n + ".comp", Tree::stage("lib/shared.glsl", "shared_value()"));
+  ProgramRegistry r(t.root);
+  std::mutex m;
+  std::condition_variable cv;
+  int arrived = 0;
+  bool rendezvous = false, fail_two = false;
+  std::vector<std::string> events;
+  std::map<std::string, int> met;  // makers that saw all three arrive
+  for (const auto& name : names) {
+    r.add_prepared(name, {{name + ".comp", {}}}, [&, name](const Spirvs&) -> ProgramRegistry::Install {
+      if (rendezvous) {
+        std::unique_lock lock(m);
+        ++arrived;
+        cv.notify_all();
+        if (cv.wait_for(lock, std::chrono::seconds(10), [&] { return arrived == 3; })) ++met[name];
+      }
+      if (fail_two && name == "two") throw Error("two: pipeline creation failed");
+      std::lock_guard lock(m);
+      events.push_back("made " + name);
+      return [&, name] {
+        std::lock_guard install_lock(m);
+        events.push_back("installed " + name);
+      };
+    });
+  }
+  EXPECT_EQ(events.size(), 6u);  // each made and installed at add()
+  events.clear();
+  rendezvous = true;
+  t.write("lib/shared.glsl", "float shared_value() { return 2.0; }\n");
+  auto res = r.reload({t.root / "lib/shared.glsl"}, [&] {
+    std::lock_guard lock(m);
+    events.push_back("gpu idle");
+  });
+  EXPECT_THAT(res.rebuilt, ElementsAre("one", "two", "three"));
+  for (const auto& n : names) EXPECT_EQ(met[n], 1) << n << " was made alone";
+  ASSERT_EQ(events.size(), 7u);
+  for (size_t i = 0; i < 3; ++i) EXPECT_THAT(events[i], ::testing::StartsWith("made "));
+  EXPECT_EQ(events[3], "gpu idle");
+  EXPECT_THAT(std::vector<std::string>(events.begin() + 4, events.end()),
+              ElementsAre("installed one", "installed two", "installed three"));
+
+  events.clear();
+  rendezvous = false;
+  fail_two = true;
+  t.write("lib/shared.glsl", "float shared_value() { return 3.0; }\n");
+  res = r.reload({t.root / "lib/shared.glsl"}, [&] { events.push_back("gpu idle"); });
+  EXPECT_THAT(res.failed, ElementsAre("two"));
+  EXPECT_THAT(res.held, ElementsAre("one", "three"));
+  EXPECT_THAT(res.errors, ElementsAre("two: pipeline creation failed"));
+  EXPECT_THAT(events, ::testing::UnorderedElementsAre("made one", "made three"));
 }
 
 }  // namespace

@@ -191,6 +191,14 @@ class ContactShadowPass {
   // resolved depth stay the same images, so whoever samples them needs no new descriptors. On
   // an error (the pipelines cannot be created) the pass keeps its previous pipelines.
   void set_spirv(std::vector<std::uint32_t> march_spirv, std::vector<std::uint32_t> resolve_spirv);
+  // The same in two steps, for a caller that makes several programs' pipelines at once (the
+  // program registry): prepare_spirv makes the two pipelines and changes nothing (it may run on
+  // another thread while the GPU uses the old ones; it throws when they cannot be made);
+  // install swaps them in (the GPU must be done with the old ones).
+  struct Prepared;
+  std::shared_ptr<Prepared> prepare_spirv(std::vector<std::uint32_t> march_spirv,
+                                          std::vector<std::uint32_t> resolve_spirv) const;
+  void install(const std::shared_ptr<Prepared>& prepared);
   // The push constants of the last recorded march.
   const ContactShadowGpu& last_params() const { return last_params_; }
 
@@ -207,6 +215,7 @@ class ContactShadowPass {
   void create();
   void destroy();
   void create_pipelines();
+  gpu::Specialization specialization() const;
 
   gpu::Context& ctx_;
   std::uint32_t width_ = 0, height_ = 0;

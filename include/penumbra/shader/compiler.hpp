@@ -7,6 +7,8 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
+#include <mutex>
 #include <optional>
 #include <penumbra/core/error.hpp>
 #include <string>
@@ -121,7 +123,7 @@ class Compiler {
     uint64_t cache_hits = 0;  // requests answered from the cache (memory or disk)
     uint64_t disk_hits = 0;   // of those, answered from the on-disk cache
   };
-  Stats stats() const { return stats_; }
+  Stats stats() const;
 
   // Drops the cached SPIR-V; stats are kept.
   void clear_cache();
@@ -132,6 +134,9 @@ class Compiler {
                          const std::vector<Define>& extra_defines);
 
   CompileOptions options_;
+  // compile_file and compile_source may run on several threads at once (the program registry
+  // compiles the programs one edit reaches in parallel): the cache and the stats are shared.
+  mutable std::shared_ptr<std::mutex> mutex_ = std::make_shared<std::mutex>();
   std::unordered_map<uint64_t, std::vector<uint32_t>> cache_;
   Stats stats_;
 };

@@ -15,6 +15,10 @@
 //     tonemap = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], layout);
 //   });
 //   auto result = registry.reload({shader_dir / "penumbra/noise.glsl"});
+//
+// Latency: a reload compiles the programs it reaches in parallel (one thread each), and makes
+// the pipelines of those added with add_prepared in parallel too, while the GPU still runs the
+// old ones; it waits for the GPU (before_first_create) only to swap them in.
 
 #include <cstdint>
 #include <filesystem>
@@ -49,7 +53,14 @@ struct ReloadResult {
 
 class ProgramRegistry {
  public:
+  // Makes and installs a program's pipelines from its SPIR-V, in one step (with the GPU idle).
   using Create = std::function<void(const Spirvs&)>;
+  // Swaps made pipelines in (with the GPU idle); should not throw.
+  using Install = std::function<void()>;
+  // Makes a program's pipelines and changes nothing else: it may run on a worker thread, next to
+  // other programs' Prepare, while the GPU runs the old pipelines. Throws when they cannot be
+  // made; what it returns installs them.
+  using Prepare = std::function<Install(const Spirvs&)>;
 
   explicit ProgramRegistry(std::filesystem::path shader_dir);
 
@@ -59,6 +70,9 @@ class ProgramRegistry {
   // reload() whenever one of the files it read changes. Throws penumbra::Error (with file:line)
   // when a source does not compile, and whatever create throws.
   void add(std::string name, std::vector<ProgramSource> sources, Create create);
+  // The same, in two steps: at a reload the pipelines are made in parallel with the other
+  // programs' and installed together.
+  void add_prepared(std::string name, std::vector<ProgramSource> sources, Prepare prepare);
 
   // Recompiles the programs that read one of these files and recreates them. before_first_create
   // runs once, before the first create (the renderer waits for the GPU to be idle there).
@@ -77,12 +91,16 @@ class ProgramRegistry {
     std::string name;
     std::vector<ProgramSource> sources;
     std::set<std::filesystem::path> dependencies;
-    Create create;
+    Prepare prepare;
     std::vector<Reflection> made_for;  // per stage: the interface the pipeline was made for
     Spirvs current;                    // the SPIR-V of the running pipeline
   };
   Spirvs compile(const std::vector<ProgramSource>& sources,
                  std::set<std::filesystem::path>* dependencies);
+  // What in a recompiled program's interface differs from what its pipeline was made for, each
+  // with the file:line of the declaration, as one message; empty when nothing does.
+  std::string interface_report(const Program& p, const Spirvs& spirv,
+                               const std::set<std::filesystem::path>& deps) const;
 
   std::filesystem::path shader_dir_;
   Compiler compiler_;

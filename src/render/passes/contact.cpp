@@ -13,19 +13,22 @@ ContactPass::ContactPass(FrameResources& r) {
   desc.height = r.height;
   desc.settings = r.scene.contact;
   desc.shader_dir = r.registry.shader_dir();
-  r.add_pipeline("contact-shadows (depth resolve + march)",
-                 {{"contact_shadows.comp", {}}, {"depth_resolve.comp", {}}},
-                 [this, &r, desc](const shader::Spirvs& spirv) {
-                   if (pass_) {
-                     pass_->set_spirv(spirv[0], spirv[1]);
-                     return;
-                   }
-                   ContactShadowPassDesc d = desc;
-                   d.march_spirv = spirv[0];
-                   d.resolve_spirv = spirv[1];
-                   pass_ = std::make_unique<ContactShadowPass>(r.ctx, d);
-                   r.contact_mask = pass_->mask();
-                 });
+  r.add_prepared_pipeline(
+      "contact-shadows (depth resolve + march)",
+      {{"contact_shadows.comp", {}}, {"depth_resolve.comp", {}}},
+      [this, &r, desc](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
+        if (pass_) {
+          auto prepared = pass_->prepare_spirv(spirv[0], spirv[1]);
+          return [this, prepared] { pass_->install(prepared); };
+        }
+        ContactShadowPassDesc d = desc;  // the first build: the pass and its images
+        d.march_spirv = spirv[0];
+        d.resolve_spirv = spirv[1];
+        return [this, &r, d] {
+          pass_ = std::make_unique<ContactShadowPass>(r.ctx, d);
+          r.contact_mask = pass_->mask();
+        };
+      });
   r.report.passes.push_back("contact-shadows: compute (" +
                             std::to_string(desc.settings.step_count) + " steps)");
   r.report.images.push_back("contact-mask " + std::to_string(r.width) + "x" +

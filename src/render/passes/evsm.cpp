@@ -77,8 +77,8 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
                                (p == 0 ? "evsm-moments-x" : "evsm-moments-y"),
                            defines),
                    {{"render/evsm_moments.comp", defines}},
-                   [this, &r, p](const shader::Spirvs& spirv) {
-                     pass_[p] = std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
+                   pass_[p], [this, &r](const shader::Spirvs& spirv) {
+                     return std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
                    });
     set_[p] = r.pool.allocate(layout_->set_layout(0));
   }

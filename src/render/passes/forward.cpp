@@ -25,7 +25,7 @@ ForwardPass::ForwardPass(FrameResources& r) {
     if (masked && !req.masked_materials) continue;
     r.add_pipeline(variant(std::string("forward-") + (masked ? "masked" : "opaque"), defines),
                    {{"render/geometry.vert", {}}, {"render/forward.frag", defines}},
-                   [this, &r, masked](const shader::Spirvs& spirv) {
+                   masked ? masked_ : opaque_, [&r, masked, this](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];
                      d.fragment_spirv = spirv[1];
@@ -39,8 +39,7 @@ ForwardPass::ForwardPass(FrameResources& r) {
                      // tolerates last-bit differences between two pipelines.
                      d.depth_compare = r.depth_test(false);
                      d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
-                     (masked ? masked_ : opaque_) =
-                         std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, *layout_);
+                     return std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, *layout_);
                    });
   }
   set_ = r.pool.allocate(layout_->set_layout(0));

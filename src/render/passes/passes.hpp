@@ -94,6 +94,22 @@ struct FrameResources {
   // sources (or their includes) read the edited file.
   void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
                     std::function<void(const shader::Spirvs&)> create);
+  // The same in two steps (ProgramRegistry::add_prepared): at a reload `make` builds the new
+  // pipeline on a worker thread, next to the other programs' and while the GPU runs the old
+  // one; then it is moved into `target` with the GPU idle. `make` must only read what it
+  // captures.
+  void add_prepared_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
+                             shader::ProgramRegistry::Prepare prepare);
+  template <class P, class Make>
+  void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
+                    std::unique_ptr<P>& target, Make make) {
+    add_prepared_pipeline(name, std::move(sources),
+                          [&target, make](const shader::Spirvs& spirv)
+                              -> shader::ProgramRegistry::Install {
+                            auto fresh = std::make_shared<std::unique_ptr<P>>(make(spirv));
+                            return [&target, fresh] { target = std::move(*fresh); };
+                          });
+  }
   VkCompareOp depth_test(bool strict) const;  // nearer passes (reverse-Z: greater)
 };
 
@@ -167,7 +183,7 @@ class PerPixelCompute {
   std::unique_ptr<gpu::PipelineLayout> layout_;
   Specialize specialize_;
   std::vector<uint32_t> spirv_;  // the running program's
-  std::map<SpecValues, std::unique_ptr<gpu::ComputePipeline>> pipelines_;
+  std::map<SpecValues, std::shared_ptr<gpu::ComputePipeline>> pipelines_;
   VkDescriptorSet set_ = VK_NULL_HANDLE;
 };
 

@@ -15,7 +15,7 @@ PrepassPass::PrepassPass(FrameResources& r) {
     if (masked && !r.req.masked_materials) continue;
     r.add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
                    {{"render/geometry.vert", {}}, {"render/prepass.frag", mask_defines(r)}},
-                   [this, &r, masked](const shader::Spirvs& spirv) {
+                   masked ? masked_ : opaque_, [&r, masked, this](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];
                      d.fragment_spirv = spirv[1];
@@ -24,8 +24,7 @@ PrepassPass::PrepassPass(FrameResources& r) {
                      d.depth_format = kDepthFormat;
                      d.depth_compare = r.depth_test(true);
                      d.cull = masked ? VK_CULL_MODE_NONE : VK_CULL_MODE_BACK_BIT;
-                     (masked ? masked_ : opaque_) =
-                         std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, *layout_);
+                     return std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, *layout_);
                    });
   }
   set_ = r.pool.allocate(layout_->set_layout(0));

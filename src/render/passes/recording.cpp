@@ -131,6 +131,13 @@ void FrameResources::add_pipeline(const std::string& name,
   report.pipelines.push_back(name);
 }
 
+void FrameResources::add_prepared_pipeline(const std::string& name,
+                                           std::vector<shader::ProgramSource> sources,
+                                           shader::ProgramRegistry::Prepare prepare) {
+  registry.add_prepared(name, std::move(sources), std::move(prepare));
+  report.pipelines.push_back(name);
+}
+
 VkCompareOp FrameResources::depth_test(bool strict) const {
   if (strict) return reverse_z ? VK_COMPARE_OP_GREATER : VK_COMPARE_OP_LESS;
   return reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
@@ -216,15 +223,18 @@ PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
       layout_(std::make_unique<gpu::PipelineLayout>(
           r.ctx, std::vector<std::vector<gpu::BindingDesc>>{std::move(bindings)})),
       specialize_(std::move(specialize)) {
-  r.add_pipeline(name, {std::move(source)}, [this, &r](const shader::Spirvs& spirv) {
-    // The variant this frame needs; the others were made from the old code and go (the registry
-    // calls this with the GPU idle).
-    const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
-    auto fresh = make(r, spirv[0], values);
-    pipelines_.clear();
-    pipelines_.emplace(values, std::move(fresh));
-    spirv_ = spirv[0];
-  });
+  r.add_prepared_pipeline(
+      name, {std::move(source)},
+      [this, &r](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
+        // The variant this frame needs; at the install the others, made from the old code, go.
+        const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
+        std::shared_ptr<gpu::ComputePipeline> fresh = make(r, spirv[0], values);
+        return [this, values, fresh, code = spirv[0]] {
+          pipelines_.clear();
+          pipelines_.emplace(values, fresh);
+          spirv_ = code;
+        };
+      });
   set_ = r.pool.allocate(layout_->set_layout(0));
 }
 

@@ -50,8 +50,8 @@ void add_caster_pipelines(FrameResources& r, const std::string& name, const std:
     std::vector<shader::ProgramSource> sources{{vertex, {}}};
     if (masked) sources.push_back({"render/shadow_masked.frag", mask_defines(r)});
     auto& target = masked ? masked_out : opaque;
-    r.add_pipeline(name + (masked ? "-masked" : "-opaque (no fragment stage)"), sources,
-                   [&r, masked, depth_clamp, &layout, &target](const shader::Spirvs& spirv) {
+    r.add_pipeline(name + (masked ? "-masked" : "-opaque (no fragment stage)"), sources, target,
+                   [&r, masked, depth_clamp, &layout](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];
                      if (masked) d.fragment_spirv = spirv[1];
@@ -61,7 +61,7 @@ void add_caster_pipelines(FrameResources& r, const std::string& name, const std:
                      d.depth_bias = true;
                      d.depth_clamp = depth_clamp;
                      d.cull = VK_CULL_MODE_NONE;
-                     target = std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
+                     return std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
                    });
   }
 }
@@ -141,7 +141,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     auto& pipe = v.opaque;
     r.add_pipeline("point-shadow-cube (linear distance)",
                    {{"render/point_depth.vert", {}}, {"render/point_depth.frag", mask_defines(r)}},
-                   [&r, &layout, &pipe](const shader::Spirvs& spirv) {
+                   pipe, [&r, &layout](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];
                      d.fragment_spirv = spirv[1];
@@ -149,7 +149,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                      d.depth_format = kDepthFormat;
                      d.depth_compare = r.depth_test(false);
                      d.cull = VK_CULL_MODE_NONE;  // cube face views are mirrored
-                     pipe = std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
+                     return std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
                    });
     v.set = ubo_set(r, *v.layout, point_ubo);
     const bool fitted = std::any_of(r.scene.points.begin(), r.scene.points.end(),
