@@ -52,7 +52,7 @@ struct Options {
   bool watch = false;
   bool exit_after_frames = false;  // window: close after --frames presented frames
   bool ui = true;                  // window: the Dear ImGui parameter panel
-  uint32_t debounce_ms = 50;
+  uint32_t debounce_ms = uint32_t(penumbra::runtime::kDefaultDebounce.count());
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
   std::vector<std::pair<std::string, std::string>> sets;     // --set KEY=VALUE, in order
@@ -132,7 +132,7 @@ void usage() {
       "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
-      "  --debounce-ms quiet time that ends a burst of file events (default 50)\n"
+      "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
       "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
       "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
       "                scene, size, set KEY VALUE, get, view, frame, render [N], screenshot\n"

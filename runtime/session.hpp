@@ -40,7 +40,7 @@ struct SessionOptions {
   std::filesystem::path shader_dir;     // empty: the repo's shaders/ (compiled in)
   std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
   bool watch = true;                    // false: no watcher (reload only through reload())
-  std::chrono::milliseconds debounce{50};
+  std::chrono::milliseconds debounce = kDefaultDebounce;
   // Every line the session prints ("[reload] ..."); default: stdout, flushed.
   std::function<void(const std::string&)> log;
 };
