@@ -4,7 +4,9 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <sstream>
@@ -260,6 +262,48 @@ TEST(ScriptEndToEnd, ARelativeShaderDirReloads) {
   EXPECT_EQ(pclose(p), 0) << output;
   EXPECT_THAT(output, HasSubstr("[reload] rebuilt: tonemap"));
   EXPECT_THAT(output, Not(HasSubstr("not reloaded")));
+}
+
+// penumbra-view --watch, as a user runs it: timings.csv and the PNG are complete before the
+// watch loop starts (issue 18 found timings.csv empty for the whole session), an edit rewrites
+// the PNG, and Ctrl-C ends it with status 0 and the median latency.
+TEST(ViewWatch, WritesTimingsBeforeWatchingRewritesThePngAndStopsOnSigint) {
+  TempTree tree(true);
+  const fs::path out = tree.root() / "out";
+  // `timeout` bounds the test should the watch loop ignore the signal.
+  const std::string cmd = "echo $$; exec timeout -s KILL 180 " + std::string(PENUMBRA_VIEW_EXE) +
+                          " --headless --watch --size 160x90 --frames 1 --view lit --shader-dir " +
+                          tree.shaders().string() + " --out " + out.string() + " 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  ASSERT_NE(p, nullptr);
+  std::string output;
+  char buf[512];
+  ASSERT_TRUE(fgets(buf, sizeof buf, p));
+  const long pid = std::atol(buf);
+  ASSERT_GT(pid, 0);
+  auto read_until = [&](const std::string& text) {
+    while (fgets(buf, sizeof buf, p)) {
+      output += buf;
+      if (output.find(text) != std::string::npos) return true;
+    }
+    return false;
+  };
+  ASSERT_TRUE(read_until("[watch] watching")) << output;
+  const std::string csv = testing::read_text(out / "timings.csv");
+  EXPECT_THAT(csv, HasSubstr("device,scene,width,height,pass,median_ms,frames\n"));
+  EXPECT_THAT(csv, HasSubstr(",default,160,90,tonemap,"));
+  const std::string before = testing::read_text(out / "lit.png");
+  EXPECT_FALSE(before.empty());
+  const fs::path tonemap = tree.shaders() / "render/tonemap.comp";
+  testing::write_text(tonemap, testing::replaced(testing::read_text(tonemap), "frame.ambient.w;",
+                                                 "frame.ambient.w * 0.5;"));
+  EXPECT_TRUE(read_until("[watch] wrote")) << output;
+  EXPECT_NE(testing::read_text(out / "lit.png"), before) << "half the exposure";
+  ::kill(static_cast<pid_t>(pid), SIGINT);
+  read_until("\x01");  // to the end
+  EXPECT_EQ(pclose(p), 0) << output;
+  EXPECT_THAT(output, HasSubstr("reload latency (file event -> first frame with the new "
+                                "pipelines): median"));
 }
 
 }  // namespace
