@@ -75,9 +75,29 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
   ro.width = width_;
   ro.height = height_;
   renderer_ = std::make_unique<render::Renderer>(ctx_, scene, ro);
+  watch_outside_files();
 }
 
 Session::~Session() = default;
+
+bool Session::outside_tree(const fs::path& file) const {
+  const fs::path rel = file.lexically_relative(shader_dir_);
+  return rel.empty() || rel.native().rfind("..", 0) == 0;
+}
+
+void Session::watch_outside_files() {
+  if (!watcher_) return;
+  for (const fs::path& f : renderer_->shader_files()) {
+    if (!outside_tree(f)) continue;
+    try {
+      if (watcher_->watch_directory(f.parent_path()))
+        log("[watch] also watching " + f.parent_path().string() + ": " + f.filename().string() +
+            " is read through a symlink in the shader tree");
+    } catch (const Error& e) {
+      log(std::string("[watch] ") + e.what() + " (edits there are not seen)");
+    }
+  }
+}
 
 void Session::log(const std::string& line) const {
   options_.log(line);
@@ -103,6 +123,7 @@ void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height
                 e.what());
   }
   renderer_ = std::move(fresh);
+  watch_outside_files();
   width_ = width;
   height_ = height;
   rendered_ = false;
@@ -164,6 +185,9 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
   std::set<fs::path> files = retry_;
   const auto read = renderer_->shader_files();
   for (const auto& c : changes) {
+    // Another file in the directory of a symlinked shader's target: not ours.
+    if (outside_tree(c.path) && std::find(read.begin(), read.end(), c.path) == read.end())
+      continue;
     rec.event = std::min(rec.event, c.first_seen);
     if (c.exists) {
       files.insert(c.path);
@@ -201,6 +225,7 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
     rec.result.errors.assign(names.size(), e.what());
   }
   rec.reload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  watch_outside_files();  // an edit may include a file through a new symlink
 
   const auto previous = errors_;
   for (const auto& r : rec.result.rebuilt) errors_.erase(r);

@@ -121,6 +121,10 @@ class Session {
 
  private:
   ReloadRecord apply(const std::vector<FileChange>& changes);
+  // Watches the directories of the files the pipelines read outside the shader tree (the
+  // targets of symlinked shaders), so editing a target reloads too.
+  void watch_outside_files();
+  bool outside_tree(const std::filesystem::path& file) const;
   void rebuild(const scene::Scene& scene, std::uint32_t width, std::uint32_t height);
 
   gpu::Context& ctx_;

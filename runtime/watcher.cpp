@@ -68,6 +68,16 @@ void Watcher::add_directory(const fs::path& dir) {
   directories_[wd] = dir;
 }
 
+bool Watcher::watch_directory(const fs::path& dir) {
+  const fs::path d = canonical_dir(dir);
+  std::lock_guard lock(mutex_);  // the reader thread maps descriptors to directories
+  for (const auto& [wd, watched] : directories_)
+    if (watched == d) return false;
+  const size_t before = directories_.size();
+  add_directory(d);
+  return directories_.size() > before;
+}
+
 // Watches dir and its subdirectories. report_files: the files already in it become pending
 // changes (a directory created or moved in after the watch began may hold files written
 // before its own watch existed).

@@ -71,6 +71,11 @@ class Watcher {
   // (then returns an empty list).
   std::vector<FileChange> wait(std::chrono::milliseconds timeout);
 
+  // Also watches `dir` itself, not its subdirectories: the directory of a file read from outside
+  // the roots (the target of a shader that is a symlink to a file elsewhere). Returns true when
+  // it was not watched before; throws penumbra::Error naming it when inotify refuses.
+  bool watch_directory(const std::filesystem::path& dir);
+
   // The directories watched now (weakly canonical), sorted.
   std::vector<std::filesystem::path> directories() const;
   // inotify events read so far (all of them, also those filtered out).

@@ -390,6 +390,27 @@ TEST_F(ReloadTest, AParameterThatChangesWhatIsBuiltRebuildsAndKeepsReloading) {
   EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
 }
 
+// A shader that is a symlink to a file outside the tree (a shared checkout, say): editing the
+// target reloads like editing the file itself, and other files next to the target are ignored.
+TEST_F(ReloadTest, EditingTheTargetOfASymlinkedShaderReloads) {
+  const fs::path outside = tree.root() / "outside";
+  fs::create_directories(outside);
+  const fs::path target = outside / "tonemap.comp";
+  fs::rename(tree.shaders() / "render/tonemap.comp", target);
+  fs::create_symlink(target, tree.shaders() / "render/tonemap.comp");
+  auto s = start();
+  EXPECT_TRUE(logged("[watch] also watching " + outside.string())) << ::testing::PrintToString(log);
+  const auto before = s->pixels();
+  testing::write_text(outside / "unrelated.glsl", "float unrelated() { return 1.0; }\n");
+  EXPECT_FALSE(s->wait_reload(1000ms)) << "a file no pipeline reads";
+  testing::write_text(target, testing::replaced(testing::read_text(target), kExposure, kHalfExposure));
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec) << "the target's edit was not seen";
+  EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
+  EXPECT_NE(s->pixels(), before);
+  EXPECT_EQ(s->pixels(), cold_start());
+}
+
 // The sun resolve is specialized per frame by its filter and by whether the penumbra view is on
 // (a pipeline per set of values, made when a frame first needs it). A filter or view changed
 // between frames must render what a renderer built for it renders, and after a reload the
