@@ -56,6 +56,19 @@ layout(set = 0, binding = 11) uniform samplerCubeArray point_moments;
 layout(set = 0, binding = 12) uniform sampler2DArray spot_moments;
 #endif
 
+// The renderer specializes these per frame (src/render/passes/shadow_resolve.cpp): bit f of
+// kSpotFilters (kPointFilters) is set when a spot (point) light may be filtered with f, so the
+// driver compiles only those filters; kPenumbraView is 1 with the penumbra view. Unspecialized,
+// every filter is compiled and the view is read from the frame.
+const uint kFromFrame = 0xffffffffu;
+layout(constant_id = 0) const uint kSpotFilters = kFromFrame;
+layout(constant_id = 1) const uint kPointFilters = kFromFrame;
+layout(constant_id = 2) const uint kPenumbraView = kFromFrame;
+bool penumbra_view() {
+  return kPenumbraView == kFromFrame ? frame.mode.w == kViewPenumbra : kPenumbraView == 1u;
+}
+bool in_set(uint filters, uint f) { return (filters & (1u << f)) != 0u; }
+
 // The light's own filter (LightGpu.params.w), else the scene's.
 uint light_filter(LightGpu light) {
   return light.params.w >= 0.0 ? uint(light.params.w) : frame.mode.z;
@@ -109,7 +122,7 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   PcssLocalParams params =
       local_params(light.params.z, s.params.z, s.position_near.w, s.direction_far.w);
   float receiver_distance = dot(q - s.position_near.xyz, s.direction_far.xyz);
-  if (frame.mode.w == kViewPenumbra) {  // the PCSS estimate whatever the filter
+  if (penumbra_view()) {  // the PCSS estimate whatever the filter
     float average;
     int blockers;
     pcss_blocker_search_array(spot_depth, coord, map,
@@ -123,14 +136,15 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
   uint filter_mode = light_filter(light);
-  if (filter_mode == kFilterHard) return pcf_grid_array(spot_compare, coord, map, 0, texel);
-  if (filter_mode == kFilterPcf)
+  if (in_set(kSpotFilters, kFilterHard) && filter_mode == kFilterHard)
+    return pcf_grid_array(spot_compare, coord, map, 0, texel);
+  if (in_set(kSpotFilters, kFilterPcf) && filter_mode == kFilterPcf)
     return pcf_grid_array(spot_compare, coord, map, int(frame.filter_params.x), texel);
-  if (filter_mode == kFilterPoisson)
+  if (in_set(kSpotFilters, kFilterPoisson) && filter_mode == kFilterPoisson)
     return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
                              frame.filter_params.w, rotation, texel);
 #if PENUMBRA_SPOT_MOMENTS
-  if (filter_mode == kFilterEvsm2) {
+  if (in_set(kSpotFilters, kFilterEvsm2) && filter_mode == kFilterEvsm2) {
     // The receiver's view depth mapped as the moments' depths were (1 - t under reverse-Z).
     float t = clamp((receiver_distance - params.near) / (params.far - params.near), 0.0, 1.0);
     return evsm2_sample_shadow_array(spot_moments, vec3(coord.xy, reverse_z ? 1.0 - t : t), map,
@@ -138,6 +152,8 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
                                      frame.evsm.w != 0.0);
   }
 #endif
+  // Not reached with the renderer's specialization unless a spot light uses pcss.
+  if (!in_set(kSpotFilters, kFilterPcss)) return 1.0;
   // The receiver plane's depth gradient in the map, from two points on the plane a texel's
   // footprint away (receiver_plane_depth_gradient takes any two independent steps).
   vec3 t1, t2;
@@ -179,7 +195,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   float ref = cube_compare_depth(receiver_distance, s.depth_range.x, s.depth_range.z, reverse_z);
   PcssLocalParams params =
       local_params(light.params.z, 2.0 / resolution, s.depth_range.x, s.depth_range.y);
-  if (frame.mode.w == kViewPenumbra) {  // the PCSS estimate whatever the filter
+  if (penumbra_view()) {  // the PCSS estimate whatever the filter
     float average;
     int blockers;
     pcss_cube_blocker_search(point_depth, v, map, ref,
@@ -193,17 +209,20 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
   uint filter_mode = light_filter(light);
-  if (filter_mode == kFilterHard) return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
-  if (filter_mode == kFilterPcf)
+  if (in_set(kPointFilters, kFilterHard) && filter_mode == kFilterHard)
+    return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
+  if (in_set(kPointFilters, kFilterPcf) && filter_mode == kFilterPcf)
     return pcf_cube_array(point_compare, v, map, ref, int(frame.filter_params.x), resolution);
-  if (filter_mode == kFilterPoisson)
+  if (in_set(kPointFilters, kFilterPoisson) && filter_mode == kFilterPoisson)
     return pcf_cube_vogel_array(point_compare, v, map, ref, int(frame.filter_params.z),
                                 frame.filter_params.w, rotation, resolution);
 #if PENUMBRA_POINT_MOMENTS
-  if (filter_mode == kFilterEvsm2)
+  if (in_set(kPointFilters, kFilterEvsm2) && filter_mode == kFilterEvsm2)
     return evsm2_sample_shadow_cube_array(point_moments, v, map, ref, frame.evsm.x, frame.evsm.y,
                                           frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
 #endif
+  // Not reached with the renderer's specialization unless a point light uses pcss.
+  if (!in_set(kPointFilters, kFilterPcss)) return 1.0;
   return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
                                 resolution, params, int(frame.filter_params.y), rotation,
                                 reverse_z, n);

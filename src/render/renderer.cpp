@@ -105,6 +105,7 @@ struct Renderer::Impl {
     res.height = o.height ? o.height : s.render.height;
     res.reverse_z = s.shadows.reverse_z;
     res.visibility_output = o.visibility_output;
+    res.specialize = o.specialize;
   }
 
   // The temporal history (shadows.temporal): the last frame's camera, and what resets it.

@@ -8,6 +8,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/testing/gpu_test.hpp>
@@ -449,6 +450,40 @@ TEST_F(ReloadTest, SpecializedVariantsFollowTheFrameAndAReload) {
   s->render();
   EXPECT_NE(s->pixels(), pcf_before);
   EXPECT_EQ(s->pixels(), fresh("pcf", "lit"));
+}
+
+// Specialization must not change a pixel: for every filter (the scene's, which the local lights
+// without their own follow), lights with their own filters, and the debug views that change
+// what the resolves compute, the specialized renderer renders what the unspecialized one does
+// (every filter compiled, the choice read from the frame).
+TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
+  auto render_with = [&](const scene::Scene& sc, bool specialize) {
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
+    o.specialize = specialize;
+    render::Renderer r(ctx(), sc, o);
+    r.render(0);
+    return r.read_rgba8();
+  };
+  struct Case {
+    std::string scene, filter, view;
+    std::optional<scene::Filter> spot, point;  // the lights' own filters
+  };
+  const std::vector<Case> cases{
+      {"default", "hard", "lit", {}, {}},         {"default", "pcf", "penumbra", {}, {}},
+      {"default", "pcss", "lit", {}, {}},         {"default", "poisson", "shadow_factor", {}, {}},
+      {"indoor", "pcf", "lit", {}, {}},           {"indoor", "pcss", "penumbra", {}, {}},
+      {"indoor", "poisson", "lit", {}, {}},       {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
+      {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2}};
+  for (const Case& c : cases) {
+    scene::Scene sc = small_scene(c.scene);
+    scene::set_param(sc, "shadows.filter", c.filter);
+    scene::set_param(sc, "render.view", c.view);
+    for (auto& l : sc.spots) l.filter = c.spot;
+    for (auto& l : sc.points) l.filter = c.point;
+    EXPECT_EQ(render_with(sc, true), render_with(sc, false))
+        << c.scene << ", " << c.filter << ", " << c.view;
+  }
 }
 
 // The renderer names the constants it specializes; a shader that renames one is refused at the

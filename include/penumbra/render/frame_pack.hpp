@@ -6,6 +6,7 @@
 // without a GPU.
 
 #include <cstdint>
+#include <optional>
 #include <glm/glm.hpp>
 #include <penumbra/render/frame_types.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -73,6 +74,10 @@ std::uint32_t filter_index(scene::Filter filter);
 // The sun's filter as the frame carries it (FrameGpu::mode.z): the scene's, except that evsm2
 // without its moments (a renderer built for another filter) falls back to pcf.
 std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments);
+// The filter a spot or point light is resolved with: its own (`own`; evsm2 needs its moments,
+// `moments`, else pcf), else the scene's as the frame carries it (sun_filter_index).
+std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene::Filter> own,
+                                 bool moments, bool sun_moments);
 
 // Everything the GPU reads for frame `frame_index` of `scene` at width x height.
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,

@@ -26,6 +26,10 @@ struct RendererOptions {
   // targets, read_visibility()): what the ray-traced reference compares with. Off by default:
   // a frame that nobody measures does not pay for it.
   bool visibility_output = false;
+  // The shadow resolves are specialized per frame by the filters in use and the debug view, so
+  // the driver compiles only that code (docs/architecture.md). Off: one pipeline each, every
+  // filter compiled, the values read from the frame; the images are the same bit for bit.
+  bool specialize = true;
 };
 
 // Slots of read_visibility(): the sun, then the spot lights, then the point lights.

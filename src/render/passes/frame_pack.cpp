@@ -195,6 +195,12 @@ std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments) {
   return filter_index(f == scene::Filter::evsm2 && !sun_moments ? scene::Filter::pcf : f);
 }
 
+std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene::Filter> own,
+                                 bool moments, bool sun_moments) {
+  const float slot = local_filter_slot(scene, own, moments);
+  return slot >= 0.0f ? std::uint32_t(slot) : sun_filter_index(scene, sun_moments);
+}
+
 std::uint32_t filter_index(scene::Filter f) {
   switch (f) {
     case scene::Filter::hard:

@@ -46,6 +46,7 @@ struct FrameResources {
   uint32_t width = 0, height = 0;
   bool reverse_z = true;
   bool visibility_output = false;
+  bool specialize = true;  // RendererOptions::specialize
   scene::Scene::Requirements req{};
 
   std::vector<GpuMesh> meshes;

@@ -227,7 +227,7 @@ PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
       name, {std::move(source)},
       [this, &r](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
         // The variant this frame needs; at the install the others, made from the old code, go.
-        const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
+        const SpecValues values = specialize_ && r.specialize ? specialize_(r) : SpecValues{};
         std::shared_ptr<gpu::ComputePipeline> fresh = make(r, spirv[0], values);
         return [this, values, fresh, code = spirv[0]] {
           pipelines_.clear();
@@ -261,7 +261,7 @@ std::unique_ptr<gpu::ComputePipeline> PerPixelCompute::make(const FrameResources
 }
 
 void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) {
-  const SpecValues values = specialize_ ? specialize_(r) : SpecValues{};
+  const SpecValues values = specialize_ && r.specialize ? specialize_(r) : SpecValues{};
   auto it = pipelines_.find(values);
   if (it == pipelines_.end()) it = pipelines_.emplace(values, make(r, spirv_, values)).first;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, it->second->handle());

@@ -73,6 +73,21 @@ SpecValues sun_resolve_specialization(const FrameResources& r) {
           {1, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u}};
 }
 
+// The local resolve's specialization (local_shadow_resolve.comp): the filters the scene's spot
+// lights and point lights may use (a bit per filter, over every light of the scene: a superset
+// of those shadowed this frame) and whether the penumbra view is on. The driver compiles only
+// those filters (indoor: hard and pcf of five).
+SpecValues local_resolve_specialization(const FrameResources& r) {
+  uint32_t spots = 0, points = 0;
+  for (const auto& s : r.scene.spots)
+    spots |= 1u << local_filter_index(r.scene, s.filter, r.req.spot_moments, r.req.sun_moments);
+  for (const auto& p : r.scene.points)
+    points |= 1u << local_filter_index(r.scene, p.filter, r.req.point_moments, r.req.sun_moments);
+  return {{0, "kSpotFilters", spots},
+          {1, "kPointFilters", points},
+          {2, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u}};
+}
+
 }  // namespace
 
 ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
@@ -112,7 +127,8 @@ void ShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mar
 
 LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
     : compute_(r, variant("local-shadow-resolve", local_defines(r)),
-               {"render/local_shadow_resolve.comp", local_defines(r)}, local_resolve_bindings(r)) {
+               {"render/local_shadow_resolve.comp", local_defines(r)}, local_resolve_bindings(r),
+               local_resolve_specialization) {
   r.local_info = r.make_image("local-shadow", gpu::ImageKind::image_2d, kInfoFormat, r.width,
                               r.height, 1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   r.local_debug =
