@@ -92,13 +92,10 @@ struct FrameResources {
                         uint32_t mip_levels = 1, const std::string& sized_by = {});
   uint64_t image_bytes = 0;  // every image made so far
   // A pipeline in the program registry: a shader edit rebuilds exactly the pipelines whose
-  // sources (or their includes) read the edited file.
-  void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
-                    std::function<void(const shader::Spirvs&)> create);
-  // The same in two steps (ProgramRegistry::add_prepared): at a reload `make` builds the new
-  // pipeline on a worker thread, next to the other programs' and while the GPU runs the old
-  // one; then it is moved into `target` with the GPU idle. `make` must only read what it
-  // captures.
+  // sources (or their includes) read the edited file. In two steps (ProgramRegistry::
+  // add_prepared): at a reload `make` builds the new pipeline on a worker thread, next to the
+  // other programs' and while the GPU runs the old one; then it is moved into `target` with the
+  // GPU idle. `make` must only read what it captures.
   void add_prepared_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
                              shader::ProgramRegistry::Prepare prepare);
   template <class P, class Make>
@@ -177,6 +174,7 @@ class PerPixelCompute {
   size_t pipeline_count() const { return pipelines_.size(); }
 
  private:
+  SpecValues values_for(const FrameResources& r) const;  // none when not specializing
   std::unique_ptr<gpu::ComputePipeline> make(const FrameResources& r,
                                              const std::vector<uint32_t>& spirv,
                                              const SpecValues& values) const;

@@ -124,13 +124,6 @@ gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind ki
   return gpu::Image(ctx, d);
 }
 
-void FrameResources::add_pipeline(const std::string& name,
-                                  std::vector<shader::ProgramSource> sources,
-                                  std::function<void(const shader::Spirvs&)> create) {
-  registry.add(name, std::move(sources), std::move(create));
-  report.pipelines.push_back(name);
-}
-
 void FrameResources::add_prepared_pipeline(const std::string& name,
                                            std::vector<shader::ProgramSource> sources,
                                            shader::ProgramRegistry::Prepare prepare) {
@@ -227,7 +220,7 @@ PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
       name, {std::move(source)},
       [this, &r](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
         // The variant this frame needs; at the install the others, made from the old code, go.
-        const SpecValues values = specialize_ && r.specialize ? specialize_(r) : SpecValues{};
+        const SpecValues values = values_for(r);
         std::shared_ptr<gpu::ComputePipeline> fresh = make(r, spirv[0], values);
         return [this, values, fresh, code = spirv[0]] {
           pipelines_.clear();
@@ -236,6 +229,10 @@ PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
         };
       });
   set_ = r.pool.allocate(layout_->set_layout(0));
+}
+
+SpecValues PerPixelCompute::values_for(const FrameResources& r) const {
+  return specialize_ && r.specialize ? specialize_(r) : SpecValues{};
 }
 
 std::unique_ptr<gpu::ComputePipeline> PerPixelCompute::make(const FrameResources& r,
@@ -261,7 +258,7 @@ std::unique_ptr<gpu::ComputePipeline> PerPixelCompute::make(const FrameResources
 }
 
 void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) {
-  const SpecValues values = specialize_ && r.specialize ? specialize_(r) : SpecValues{};
+  const SpecValues values = values_for(r);
   auto it = pipelines_.find(values);
   if (it == pipelines_.end()) it = pipelines_.emplace(values, make(r, spirv_, values)).first;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, it->second->handle());
