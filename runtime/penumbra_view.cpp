@@ -12,7 +12,6 @@
 #include <cstring>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <map>
 #include <memory>
 #include <penumbra/core/error.hpp>
@@ -21,6 +20,7 @@
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -194,11 +194,9 @@ Options parse(int argc, char** argv) {
       std::error_code ec;
       if (file != "-" && fs::is_directory(file, ec))
         throw Error("--script " + file + ": is a directory, not a script file");
-      if (file != "-" && !fs::exists(file, ec))
-        throw Error("--script " + file + ": no such file");
+      if (file != "-" && !fs::exists(file, ec)) throw Error("--script " + file + ": no such file");
       o.scripts.emplace_back("script", file);
-    }
-    else if (a == "--command")
+    } else if (a == "--command")
       o.scripts.emplace_back("command", value());
     else if (a == "--set")
       o.sets.push_back(penumbra::scene::split_set_flag(value()));
@@ -209,15 +207,10 @@ Options parse(int argc, char** argv) {
       throw Error("unknown argument '" + a + "' (try --help)");
   }
   if (!o.sets.empty() && !o.scripts.empty())
-    throw Error("--set does not combine with --script or --command (use the command 'set KEY "
-                "VALUE' there)");
+    throw Error(
+        "--set does not combine with --script or --command (use the command 'set KEY "
+        "VALUE' there)");
   return o;
-}
-
-double median(std::vector<double> v) {
-  if (v.empty()) return 0;
-  std::sort(v.begin(), v.end());
-  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
 std::atomic<bool> g_stop{false};
@@ -479,7 +472,8 @@ int run(int argc, char** argv) {
     throw Error((o.out.empty() ? "out/" + scene.name : "--out " + out.string()) +
                 ": exists and is not a directory");
   fs::create_directories(out, out_ec);
-  if (out_ec) throw Error("cannot create the output directory " + out.string() + ": " + out_ec.message());
+  if (out_ec)
+    throw Error("cannot create the output directory " + out.string() + ": " + out_ec.message());
 
   // Frames for timing, in the scene's own view.
   std::map<std::string, std::vector<double>> samples;
@@ -517,7 +511,7 @@ int run(int argc, char** argv) {
   csv << "device,scene,width,height,pass,median_ms,frames\n";
   double total = 0;
   for (const auto& name : order) {
-    const double m = median(samples[name]);
+    const double m = penumbra::runtime::median(samples[name]);
     total += m;
     std::printf("  %-22s %9.3f ms\n", name.c_str(), m);
     csv << '"' << ctx.info().name << "\"," << scene.name << ',' << renderer.width() << ','
@@ -525,9 +519,9 @@ int run(int argc, char** argv) {
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
   penumbra::write_file_atomic(out / "timings.csv", csv.str());
-  std::printf("\nwrote%s:\n",
-              out_existed ? " (into an existing directory: files of these names were replaced)"
-                          : "");
+  std::printf(
+      "\nwrote%s:\n",
+      out_existed ? " (into an existing directory: files of these names were replaced)" : "");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());
   std::fflush(stdout);

@@ -1,23 +1,21 @@
 #include "session.hpp"
 
 #include <algorithm>
-#include <set>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/scene/params.hpp>
+#include <set>
 #include <sstream>
 
 namespace penumbra::runtime {
 namespace fs = std::filesystem;
 
 double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
+  return v.empty() ? 0.0 : stats::median(std::move(v));
 }
 
 namespace {
@@ -186,8 +184,7 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
   const auto read = renderer_->shader_files();
   for (const auto& c : changes) {
     // Another file in the directory of a symlinked shader's target: not ours.
-    if (outside_tree(c.path) && std::find(read.begin(), read.end(), c.path) == read.end())
-      continue;
+    if (outside_tree(c.path) && std::find(read.begin(), read.end(), c.path) == read.end()) continue;
     rec.event = std::min(rec.event, c.first_seen);
     if (c.exists) {
       files.insert(c.path);

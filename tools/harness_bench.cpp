@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <random>
@@ -29,11 +30,7 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using penumbra::stats::median;
 
 const char* kLibrary = R"(// A small library for the bench.
 float bench_small(float a, vec2 b) { return a * b.x + b.y * BENCH_SALT; }

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/reference/reference.hpp>
 #include <penumbra/render/renderer.hpp>
@@ -22,10 +23,7 @@ namespace {
 using penumbra::Error;
 namespace ref = penumbra::reference;
 
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  return v.empty() ? 0.0 : v[v.size() / 2];
-}
+using penumbra::stats::median;
 
 std::string cpu_name() {
   std::ifstream in("/proc/cpuinfo");
@@ -76,7 +74,8 @@ int run(int argc, char** argv) {
       throw Error("unknown argument '" + a + "' (try --help)");
   }
   if (scenes.empty()) scenes = penumbra::scene::shipped_scenes();
-  const uint32_t used_threads = threads ? threads : std::max(1u, std::thread::hardware_concurrency());
+  const uint32_t used_threads =
+      threads ? threads : std::max(1u, std::thread::hardware_concurrency());
   std::printf("reference bench: %s, %u thread(s), %u samples per penumbra receiver, median of %u\n",
               cpu_name().c_str(), used_threads, samples, repeat);
   std::printf("%-10s %-7s %-9s %9s %8s %9s %10s %8s %9s\n", "scene", "light", "mode", "receivers",
@@ -90,9 +89,8 @@ int run(int argc, char** argv) {
     penumbra::render::Renderer renderer(ctx, scene, ro);
     renderer.render(0);
     const auto g = renderer.read_gbuffer();
-    const auto receivers = ref::receivers_from_gbuffer(g.width, g.height, g.depth, g.normal_view,
-                                                       g.camera.view, g.camera.proj,
-                                                       g.camera.origin);
+    const auto receivers = ref::receivers_from_gbuffer(
+        g.width, g.height, g.depth, g.normal_view, g.camera.view, g.camera.proj, g.camera.origin);
     size_t valid = 0;
     for (auto v : receivers.valid) valid += v;
     const auto t0 = std::chrono::steady_clock::now();
@@ -116,7 +114,10 @@ int run(int argc, char** argv) {
         for (auto s : v.samples) full_count += s == (area.hard() ? 1u : samples);
         const double med = median(seconds);
         std::printf("%-10s %-7s %-9s %9zu %7.2f%% %9llu %10.3f %8.1f %9.3f\n", name.c_str(),
-                    light.name().c_str(), area.hard() ? "hard" : adaptive ? "adaptive" : "full",
+                    light.name().c_str(),
+                    area.hard() ? "hard"
+                    : adaptive  ? "adaptive"
+                                : "full",
                     valid, valid ? 100.0 * double(full_count) / double(valid) : 0.0,
                     static_cast<unsigned long long>(v.rays), med,
                     med > 0 ? double(v.rays) / med * 1e-6 : 0.0, bvh);
@@ -149,11 +150,12 @@ int run(int argc, char** argv) {
               missed += d > 0.0;
             }
           }
-          std::printf("%-10s %-7s vs %u samples: penumbra mean |dR| %.5f (max %.3f, %zu receivers);"
-                      " early stops: %zu of %zu sampled differ, mean |dR| %.5f\n",
-                      name.c_str(), light.name().c_str(), fine.samples,
-                      partial ? sum_partial / double(partial) : 0.0, worst, partial, missed,
-                      stopped, stopped ? sum_stopped / double(stopped) : 0.0);
+          std::printf(
+              "%-10s %-7s vs %u samples: penumbra mean |dR| %.5f (max %.3f, %zu receivers);"
+              " early stops: %zu of %zu sampled differ, mean |dR| %.5f\n",
+              name.c_str(), light.name().c_str(), fine.samples,
+              partial ? sum_partial / double(partial) : 0.0, worst, partial, missed, stopped,
+              stopped ? sum_stopped / double(stopped) : 0.0);
         }
       }
     }

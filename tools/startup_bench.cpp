@@ -10,6 +10,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/gpu/resources.hpp>
@@ -24,11 +25,7 @@ using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t) {
   return std::chrono::duration<double, std::milli>(Clock::now() - t).count();
 }
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
+using penumbra::stats::median;
 
 // A shader whose text (and so SPIR-V and Mesa cache key) is unique per `salt`.
 std::string shader_source(uint64_t salt) {

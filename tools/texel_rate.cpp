@@ -8,17 +8,22 @@
 // cube-map array, as the point lights' filters take them) it fits time = base + fetches x cost
 // over the points and reports the fetch rate. penumbra-bench divides a filter's fetches by
 // that rate to get its floor and reports the resolve's measured time over it (the roofline
-// column). Writes --out (JSON, atomically) and prints a table.
+// column). A kind whose fitted cost per fetch is not at least 4 standard errors above zero (a
+// busy CPU driver's timing noise can swamp it, even make it negative) gets no rate: its
+// "gfetch_per_s" is null and "noise" says why. Writes --out (JSON, atomically) and prints a
+// table.
 //
 //   penumbra-texel-rate [--size WxH] [--map N] [--reps N] [--out FILE]
 //
 // PENUMBRA_DEVICE picks the device; PENUMBRA_VALIDATION=1 turns the validation layer on (any
 // message is an error).
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/pipeline.hpp>
@@ -47,12 +52,6 @@ struct Push {
   int32_t mode;
   float texels_per_pixel;
 };
-
-double median(std::vector<double> v) {
-  std::sort(v.begin(), v.end());
-  const size_t n = v.size();
-  return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
-}
 
 uint32_t parse_positive(const std::string& flag, const std::string& text, uint32_t max) {
   size_t used = 0;
@@ -97,17 +96,13 @@ Options parse(int argc, char** argv) {
 }
 
 // Least squares y = a + b x.
-std::pair<double, double> fit_line(const std::vector<double>& x, const std::vector<double>& y) {
-  const double n = double(x.size());
-  double sx = 0, sy = 0, sxx = 0, sxy = 0;
-  for (size_t i = 0; i < x.size(); ++i) {
-    sx += x[i];
-    sy += y[i];
-    sxx += x[i] * x[i];
-    sxy += x[i] * y[i];
-  }
-  const double b = (n * sxy - sx * sy) / (n * sxx - sx * sx);
-  return {(sy - b * sx) / n, b};
+// A finite double, or null (JSON has no NaN).
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";
+  std::ostringstream o;
+  o.precision(9);
+  o << v;
+  return o.str();
 }
 
 void check_validation(gpu::Context& ctx) {
@@ -116,8 +111,8 @@ void check_validation(gpu::Context& ctx) {
   if (messages.empty()) return;
   std::string text;
   for (const auto& m : messages) text += "\n  " + gpu::to_string(m);
-  throw Error("validation layer reported " + std::to_string(messages.size()) + " message(s):" +
-              text);
+  throw Error("validation layer reported " + std::to_string(messages.size()) +
+              " message(s):" + text);
 }
 
 int run(const Options& o) {
@@ -160,7 +155,8 @@ int run(const Options& o) {
   rd.height = o.height;
   rd.usage = VK_IMAGE_USAGE_STORAGE_BIT;
   gpu::Image result(ctx, rd);
-  gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) { result.transition(cmd, VK_IMAGE_LAYOUT_GENERAL); });
+  gpu::submit_one_shot(
+      ctx, [&](VkCommandBuffer cmd) { result.transition(cmd, VK_IMAGE_LAYOUT_GENERAL); });
 
   gpu::SamplerDesc cd;
   cd.filter = VK_FILTER_LINEAR;
@@ -207,8 +203,8 @@ int run(const Options& o) {
       gpu::submit_one_shot(ctx, [&](VkCommandBuffer cmd) {
         timestamps.reset(cmd);
         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline.handle());
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set,
-                                0, nullptr);
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set, 0,
+                                nullptr);
         vkCmdPushConstants(cmd, layout.handle(), cs, 0, sizeof(Push), &push);
         VkMemoryBarrier2 b{VK_STRUCTURE_TYPE_MEMORY_BARRIER_2};
         b.srcStageMask = b.dstStageMask = VK_PIPELINE_STAGE_2_COMPUTE_SHADER_BIT;
@@ -227,15 +223,15 @@ int run(const Options& o) {
       const auto ns = timestamps.read_ns(reps + 1);
       std::vector<double> ms;
       for (uint32_t r = 0; r < reps; ++r) ms.push_back((ns[r + 1] - ns[r]) * 1e-6);
-      points.push_back({mode, n, median(ms)});
+      points.push_back({mode, n, penumbra::stats::median(ms)});
       check_validation(ctx);
     }
   }
 
   const char* kinds[kModes] = {"compare", "fetch", "cube_compare"};
   std::ostringstream json;
-  json << "{\n \"device\": \"" << ctx.info().name << "\",\n \"driver\": \"" << ctx.info().driver_name
-       << "\",\n \"width\": " << o.width << ",\n \"height\": " << o.height
+  json << "{\n \"device\": \"" << ctx.info().name << "\",\n \"driver\": \""
+       << ctx.info().driver_name << "\",\n \"width\": " << o.width << ",\n \"height\": " << o.height
        << ",\n \"map\": " << o.map << ",\n \"reps\": " << o.reps
        << ",\n \"texels_per_pixel\": " << texels_per_pixel << ",\n \"kinds\": {";
   std::printf("device: %s (%s), %ux%u pixels, %u^2 D32 map, median of %d dispatches\n",
@@ -257,13 +253,28 @@ int run(const Options& o) {
            << "}";
       first = false;
     }
-    // The marginal cost of one fetch per pixel over the frame, and the fixed cost of a pass.
-    const auto [base_ms, ms_per_fetch] = fit_line(x, y);
-    const double rate = pixels / (ms_per_fetch * 1e-3) * 1e-9;
-    std::printf("%-12s fit: %.4f ms + %.5f ms per fetch per pixel = %.2f Gfetch/s\n", kinds[mode],
-                base_ms, ms_per_fetch, rate);
-    json << "], \"base_ms\": " << base_ms << ", \"ms_per_fetch_per_pixel\": " << ms_per_fetch
-         << ", \"gfetch_per_s\": " << rate << "}";
+    // The marginal cost of one fetch per pixel over the frame, and the fixed cost of a pass. On
+    // a busy CPU driver the timings' noise can swamp the fetches' cost, and the fitted slope
+    // comes out tiny or negative: a rate from it would be meaningless, so it is reported as
+    // noise (JSON null and the reason) and penumbra-bench leaves the roofline columns empty.
+    const penumbra::stats::LineFit fit = penumbra::stats::fit_line(x, y);
+    json << "], \"base_ms\": " << json_number(fit.intercept)
+         << ", \"ms_per_fetch_per_pixel\": " << json_number(fit.slope)
+         << ", \"slope_stderr\": " << json_number(fit.slope_stderr);
+    if (fit.significantly_positive()) {
+      const double rate = pixels / (fit.slope * 1e-3) * 1e-9;
+      std::printf("%-12s fit: %.4f ms + %.5f ms (+-%.5f) per fetch per pixel = %.2f Gfetch/s\n",
+                  kinds[mode], fit.intercept, fit.slope, fit.slope_stderr, rate);
+      json << ", \"gfetch_per_s\": " << rate << "}";
+    } else {
+      char why[200];
+      std::snprintf(why, sizeof why,
+                    "the fetches' cost is within the timing noise: slope %.3g ms +- %.3g per "
+                    "fetch per pixel (t = %.2f, needs >= 4)",
+                    fit.slope, fit.slope_stderr, fit.t());
+      std::printf("%-12s fit: no rate, %s\n", kinds[mode], why);
+      json << ", \"gfetch_per_s\": null, \"noise\": \"" << why << "\"}";
+    }
   }
   json << "\n }\n}\n";
   if (!o.out.empty()) penumbra::write_file_atomic(o.out, json.str());

@@ -29,6 +29,27 @@ check(r.returncode == 0, f"--quick exited {r.returncode}:\n{r.stdout}{r.stderr}"
 for name in ("bench.csv", "bench.json", "report.md", "default.png"):
     path = os.path.join(out, name)
     check(os.path.isfile(path) and os.path.getsize(path) > 100, f"{name} missing or empty")
+# penumbra-texel-rate's fit per fetch kind: a finite, positive rate, or none (null) with the
+# reason, when the fetches' cost does not stand out of the timing noise. Lavapipe on a busy
+# 2-core machine gives either, so both are valid; a negative or NaN rate is not.
+rate_path = os.path.join(out, "texel_rate.json")
+check(os.path.isfile(rate_path), "texel_rate.json missing")
+rates = {}
+if os.path.isfile(rate_path):
+    with open(rate_path) as f:
+        rate = json.load(f)
+    for kind in ("compare", "fetch", "cube_compare"):
+        entry = rate["kinds"][kind]
+        v = entry["gfetch_per_s"]
+        rates[kind] = v
+        if v is None:
+            check("within the timing noise" in entry.get("noise", ""),
+                  f"texel rate {kind}: no rate and no reason: {entry}")
+        else:
+            check(math.isfinite(v) and v > 0.0 and "noise" not in entry,
+                  f"texel rate {kind}: {entry}")
+        check(len(entry["points"]) == 8 and all(p["ms"] > 0 for p in entry["points"]),
+              f"texel rate {kind}: points {entry['points']}")
 if os.path.isfile(os.path.join(out, "bench.csv")):
     with open(os.path.join(out, "bench.csv")) as f:
         rows = list(csv.DictReader(f))
@@ -60,9 +81,16 @@ if os.path.isfile(os.path.join(out, "bench.csv")):
             fraction, changed, edges = flicker["translate-1cm"].split("/")
             check(0.0 <= float(fraction) <= 1.0 and int(edges) > 0 and 0 <= int(changed) <= int(edges),
                   f"{row['config']}: flicker {flicker['translate-1cm']}")
-        for key in ("resolve_ms", "resolve_floor_ms", "resolve_over_floor"):
-            v = float(row[key])
-            check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")
+        v = float(row["resolve_ms"])
+        check(math.isfinite(v) and v > 0.0, f"{row['config']}: resolve_ms = {v}")
+        # The floor and its ratio: positive where the device's 2D compare rate was measured,
+        # empty where penumbra-texel-rate reported it lost in the timing noise (a busy lavapipe).
+        for key in ("resolve_floor_ms", "resolve_over_floor"):
+            if rates.get("compare") is None:
+                check(row[key] == "", f"{row['config']}: {key} = {row[key]!r} without a rate")
+            else:
+                v = float(row[key])
+                check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")
 if os.path.isfile(os.path.join(out, "bench.json")):
     with open(os.path.join(out, "bench.json")) as f:
         meta = json.load(f)["meta"]
@@ -73,14 +101,6 @@ if os.path.isfile(os.path.join(out, "report.md")):
     check("![default](default.png)" in report and "Default:" in report, "report.md content")
     check("Roofline" in report and "over the floor" in report, "report.md has the roofline")
     check("Flicker:" in report and "translate-1cm" in report, "report.md has the flicker table")
-rate_path = os.path.join(out, "texel_rate.json")
-check(os.path.isfile(rate_path), "texel_rate.json missing")
-if os.path.isfile(rate_path):
-    with open(rate_path) as f:
-        rate = json.load(f)
-    for kind in ("compare", "fetch", "cube_compare"):
-        v = rate["kinds"][kind]["gfetch_per_s"]
-        check(math.isfinite(v) and v > 0.0, f"texel rate {kind}: {v}")
 
 # The moved bench-set scene: every position moved, and the tables without one given one.
 spec = importlib.util.spec_from_loader("bench", importlib.machinery.SourceFileLoader("bench", bench))
