@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
@@ -32,7 +33,7 @@ struct Options {
   bool cache = true;
   fs::path cache_dir;
   std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
-  std::vector<penumbra::reference::CameraPath> flicker;  // --flicker
+  std::vector<penumbra::reference::CameraPath> flicker;   // --flicker
   penumbra::reference::FlickerOptions flicker_options;
 };
 
@@ -45,7 +46,7 @@ void usage(FILE* f) {
       "                          [--terminator smooth|geometric]\n"
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
-      "                          [--flicker-truth]\n"
+      "                          [--flicker-truth] [--no-failure-modes]\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
       "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
@@ -58,6 +59,8 @@ void usage(FILE* f) {
       "  --seed       the sample sequence's seed (default 1)\n"
       "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
       "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
+      "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
+      "               rays; metrics.json's acne, leak and contact_gap_* fields, modes.png)\n"
       "  --threads    tracing threads (default: all)\n"
       "  --terminator where shadow rays start on smooth-shaded meshes: on the smooth surface\n"
       "               the vertex normals describe (default) or on the flat triangles\n"
@@ -86,6 +89,7 @@ uint64_t number(const std::string& flag, const std::string& v, uint64_t lo, uint
 
 Options parse(int argc, char** argv) {
   Options o;
+  o.measure.failure_modes = true;  // the tool tells the failure modes apart by default
   auto& t = o.measure.trace;
   bool flicker_truth = false;
   for (int i = 1; i < argc; ++i) {
@@ -155,6 +159,8 @@ Options parse(int argc, char** argv) {
       o.flicker_options.frames = uint32_t(number(a, value(), 2, 10000));
     else if (a == "--flicker-truth")
       flicker_truth = true;
+    else if (a == "--no-failure-modes")
+      o.measure.failure_modes = false;
     else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
@@ -218,8 +224,9 @@ int run(int argc, char** argv) {
          << ", \"initial_samples\": " << o.measure.trace.initial_samples
          << ", \"adaptive\": " << (o.measure.trace.adaptive ? "true" : "false")
          << ", \"seed\": " << o.measure.trace.seed << ", \"terminator\": "
-         << (o.measure.trace.terminator == penumbra::reference::Terminator::smooth ? "\"smooth\""
-                                                                                : "\"geometric\"")
+         << (o.measure.trace.terminator == penumbra::reference::Terminator::smooth
+                 ? "\"smooth\""
+                 : "\"geometric\"")
          << ", \"threshold\": " << o.measure.metrics.threshold << ", \"filters\": {";
   // Each light's filter and its fetches per pixel (penumbra-bench's roofline column).
   bool first_light = true;
@@ -233,7 +240,7 @@ int run(int argc, char** argv) {
            << ": {\"filter\": " << json_string(std::string(penumbra::scene::to_string(filter)))
            << ", \"fetches_per_pixel\": "
            << penumbra::scene::filter_fetches_per_pixel(filter, scene.shadows,
-                                                         l.light.kind == LightKind::point)
+                                                        l.light.kind == LightKind::point)
            << "}";
     first_light = false;
   }
@@ -243,8 +250,8 @@ int run(int argc, char** argv) {
   if (!o.flicker.empty()) {
     header << ", \"flicker\": {";
     for (size_t p = 0; p < o.flicker.size(); ++p) {
-      const auto results = penumbra::reference::measure_flicker(renderer, o.flicker[p],
-                                                                o.flicker_options);
+      const auto results =
+          penumbra::reference::measure_flicker(renderer, o.flicker[p], o.flicker_options);
       header << (p ? ", " : "") << json_string(o.flicker[p].name) << ": {";
       for (size_t i = 0; i < results.size(); ++i) {
         const auto& f = results[i];
@@ -262,19 +269,19 @@ int run(int argc, char** argv) {
                  << ", \"path_mean_abs_error\": " << f.path_mean_abs_error
                  << ", \"path_mean_abs_error_lit\": " << f.path_mean_abs_error_lit;
         header << "}";
-        std::printf("flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
-                    "frames\n",
-                    f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
-                    100.0 * f.fraction_lit(),
-                    o.flicker_options.frames);
+        std::printf(
+            "flicker %-14s %-7s %6.2f%% of %zu shadow-edge pixels (%.2f%% by n.l) over %u "
+            "frames\n",
+            f.path.c_str(), f.light.c_str(), 100.0 * f.fraction(), f.edge_pixels,
+            100.0 * f.fraction_lit(), o.flicker_options.frames);
         if (f.has_truth)
-          std::printf("        %-14s %-7s truth %.2f%% of %zu (%.2f%% by n.l); not in the "
-                      "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels; mean |dV| "
-                      "along the path %.4f (%.4f by n.l)\n",
-                      "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
-                      100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
-                      100.0 * f.excess_fraction_lit(), f.path_mean_abs_error,
-                      f.path_mean_abs_error_lit);
+          std::printf(
+              "        %-14s %-7s truth %.2f%% of %zu (%.2f%% by n.l); not in the "
+              "truth %.2f%% (%.2f%% by n.l) of the truth's edge pixels; mean |dV| "
+              "along the path %.4f (%.4f by n.l)\n",
+              "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
+              100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
+              100.0 * f.excess_fraction_lit(), f.path_mean_abs_error, f.path_mean_abs_error_lit);
         fs::create_directories(o.out);
         penumbra::render::write_png(
             o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,
@@ -291,8 +298,18 @@ int run(int argc, char** argv) {
                 l.reference.seconds);
     if (l.metrics.receivers == 0)
       std::printf("  note: no pixel of this frame is lit by %s\n", l.light.name().c_str());
+    if (l.has_failure_modes) {
+      const auto& f = l.failure;
+      std::printf("  acne %.3f%% of %llu clear receivers  leaks %.3f%%  contact gap ",
+                  100.0 * f.acne, (unsigned long long)f.clear_receivers, 100.0 * f.leak);
+      if (std::isfinite(f.contact_gap_texels))
+        std::printf("%.2f texels (%.4g m) over %llu contact receivers\n", f.contact_gap_texels,
+                    f.contact_gap_world, (unsigned long long)f.contact_receivers);
+      else
+        std::printf("not seen (no umbra receiver near a contact)\n");
+    }
   }
-  std::printf("wrote %s/{lit,reference,visibility,error}*.png and metrics.json (%s, %ux%u)\n",
+  std::printf("wrote %s/{lit,reference,visibility,error,modes}*.png and metrics.json (%s, %ux%u)\n",
               o.out.string().c_str(), ctx.info().name.c_str(), m.width, m.height);
   if (ctx.validation_enabled() && ctx.validation_sink().total_seen() != 0) {
     std::fprintf(stderr, "validation: %zu messages\n", ctx.validation_sink().total_seen());

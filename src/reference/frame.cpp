@@ -2,9 +2,11 @@
 #include <algorithm>
 #include <cstdio>
 #include <fstream>
+#include <limits>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
 #include <penumbra/reference/frame.hpp>
+#include <penumbra/render/frame_pack.hpp>
 #include <sstream>
 #include <system_error>
 
@@ -58,6 +60,58 @@ std::vector<std::string> budget_violations(const LightMeasurement& l, const Accu
   return out;
 }
 
+std::vector<float> light_texel_sizes(const scene::Scene& scene, const LightRef& light,
+                                     const Receivers& receivers, uint32_t width, uint32_t height,
+                                     std::span<const float> shadow_info) {
+  const size_t n = receivers.size();
+  std::vector<float> out(n, std::numeric_limits<float>::quiet_NaN());
+  render::FrameCaps caps;
+  caps.sun_shadows = bool(scene.sun);
+  caps.spot_shadow_maps = render::kMaxSpotLights;
+  caps.point_shadow_cubes = render::kMaxPointLights;
+  const render::PackedFrame pf = render::pack_frame(scene, width, height, caps, 0);
+  if (light.kind == LightKind::sun) {
+    if (!scene.sun || shadow_info.size() < 4 * n) return out;
+    const auto& cascades = pf.cascades.cascades;
+    for (size_t i = 0; i < n; ++i) {
+      const float c = shadow_info[4 * i + 1];
+      if (c >= 0.0f && size_t(c) < cascades.size())
+        out[i] = float(cascades[size_t(c)].texel_world_size);
+    }
+    return out;
+  }
+  // The light's map among the shadowed lights of its kind (lights without shadows have none).
+  auto map_index = [&](const auto& lights) -> int {
+    if (light.index >= lights.size() || !lights[light.index].shadows) return -1;
+    int k = 0;
+    for (uint32_t j = 0; j < light.index; ++j) k += lights[j].shadows ? 1 : 0;
+    return k;
+  };
+  auto perspective = [&](const glm::dvec3& position, double p00, uint32_t resolution,
+                         auto&& depth_of) {
+    for (size_t i = 0; i < n; ++i) {
+      if (!receivers.valid[i]) continue;
+      const double z = depth_of(receivers.origin + receivers.position[i] - position);
+      if (z > 0.0) out[i] = float(2.0 * z / (double(resolution) * p00));
+    }
+  };
+  if (light.kind == LightKind::spot) {
+    const int k = map_index(scene.spots);
+    if (k < 0 || size_t(k) >= pf.spot_shadows.size()) return out;
+    const shadow::SpotShadow& s = pf.spot_shadows[size_t(k)];
+    perspective(s.position, s.projection[0][0], s.resolution,
+                [&](const glm::dvec3& d) { return glm::dot(d, s.basis.z); });
+  } else {
+    const int k = map_index(scene.points);
+    if (k < 0 || size_t(k) >= pf.point_shadows.size()) return out;
+    const shadow::PointShadow& p = pf.point_shadows[size_t(k)];
+    perspective(p.position, p.projection[0][0], p.resolution, [](const glm::dvec3& d) {
+      return std::max({std::abs(d.x), std::abs(d.y), std::abs(d.z)});
+    });
+  }
+  return out;
+}
+
 FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions& options) {
   const scene::Scene& scene = renderer.scene();
   FrameMeasurement m;
@@ -85,6 +139,7 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
   }
   const Tracer tracer(scene, g.camera.origin);
   m.triangles = tracer.triangle_count();
+  std::vector<float> shadow_info;  // read once, for the sun's cascade per pixel
   for (const auto& l : lights) {
     if ((l.kind == LightKind::spot && l.index >= render::kMaxSpotLights) ||
         (l.kind == LightKind::point && l.index >= render::kMaxPointLights))
@@ -106,6 +161,23 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
     lm.metrics = compute_metrics(lm.gpu, lm.reference, lm.classes, lm.area.hard(), options.metrics,
                                  lm.n_dot_l);
     lm.metrics.light = l.name();
+    if (options.failure_modes) {
+      if (shadow_info.empty()) shadow_info = renderer.read_shadow_info();
+      lm.texel_world = light_texel_sizes(scene, l, m.receivers, m.width, m.height, shadow_info);
+      // The filter's reach at each receiver: its texels times the texel's world size there.
+      std::optional<scene::Filter> own;
+      if (l.kind == LightKind::spot) own = scene.spots[l.index].filter;
+      if (l.kind == LightKind::point) own = scene.points[l.index].filter;
+      const double reach_texels =
+          scene::filter_reach_texels(own.value_or(scene.shadows.filter), scene.shadows);
+      std::vector<float> reach(lm.texel_world.size());
+      for (size_t i = 0; i < reach.size(); ++i)
+        reach[i] = float(reach_texels * double(lm.texel_world[i]));
+      lm.probe = probe_casters(tracer, reached, lm.area, reach, 8, options.trace.threads);
+      lm.failure = compute_failure_modes(lm.gpu, lm.reference, lm.classes, lm.probe, lm.texel_world,
+                                         m.receivers.width, options.failure, &lm.modes);
+      lm.has_failure_modes = true;
+    }
     m.lights.push_back(std::move(lm));
   }
   return m;
@@ -129,8 +201,10 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
     png("reference" + s + ".png", visibility_image(l.reference.value, l.classes, m.lit));
     png("visibility" + s + ".png", visibility_image(l.gpu, l.classes, m.lit));
     png("error" + s + ".png", error_image(l.gpu, l.reference.value, l.classes, m.lit));
+    if (l.has_failure_modes) png("modes" + s + ".png", failure_mode_image(l.modes, m.lit));
     std::string j = l.metrics.to_json();
     j.pop_back();  // add the tracer's numbers to the light's object
+    if (l.has_failure_modes) j += ", " + l.failure.to_json();
     j += ", \"umbra_kept\": " + std::to_string(umbra_kept(l)) +
          ", \"umbra_kept_lit\": " + std::to_string(umbra_kept(l, nullptr, true)) +
          ", \"rays\": " + std::to_string(l.reference.rays) +
@@ -148,11 +222,10 @@ std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::pat
   }
   const fs::path json = dir / "metrics.json";
   std::ostringstream out;
-  out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ")
-      << "\"width\": " << m.width << ", \"height\": " << m.height
-      << ", \"triangles\": " << m.triangles << ", \"geometry_pixels\": " << geometry
-      << ", \"black_pixels\": " << black << ", \"rejected_pixels\": " << m.receivers.rejected
-      << ",\n  \"lights\": [" << lights_json
+  out << "{\n  " << json_header << (json_header.empty() ? "" : ",\n  ") << "\"width\": " << m.width
+      << ", \"height\": " << m.height << ", \"triangles\": " << m.triangles
+      << ", \"geometry_pixels\": " << geometry << ", \"black_pixels\": " << black
+      << ", \"rejected_pixels\": " << m.receivers.rejected << ",\n  \"lights\": [" << lights_json
       << "\n  ]\n}\n";
   write_file_atomic(json, out.str());
   written.push_back(json);

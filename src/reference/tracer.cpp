@@ -432,6 +432,13 @@ bool surface_at(RTCScene scene, const glm::dvec3& p, const glm::dvec3& along, do
 
 }  // namespace
 
+bool Tracer::blocked(const glm::dvec3& origin_relative, const glm::dvec3& direction,
+                     double tfar) const {
+  ShadowContext context;
+  rtcInitIntersectContext(&context.context);
+  return occluded(impl_->scene, context, origin_relative, direction, tfar);
+}
+
 glm::dvec3 terminator_offset(const std::array<glm::dvec3, 3>& vertex,
                              const std::array<glm::dvec3, 3>& normal, const glm::dvec3& p,
                              const glm::dvec3& barycentric) {
@@ -520,8 +527,8 @@ Visibility Tracer::trace(const Receivers& receivers, const AreaLight& light,
         const double window =
             std::max(16.0 * ray_offset(p), from_view ? double(receivers.depth_tolerance[i]) : 0.0);
         // (Explicit points under the flat-triangle model need no lookup.)
-        const bool on_caster = (smooth || from_view) && finite(along) &&
-                               surface_at(scene, p, along, window, rh);
+        const bool on_caster =
+            (smooth || from_view) && finite(along) && surface_at(scene, p, along, window, rh);
         if (on_caster && from_view) {
           const double t = double(rh.ray.tfar);
           surface_point = p + along * (t - window);

@@ -90,9 +90,9 @@ Bounds Scene::caster_bounds() const {
 Scene::Requirements Scene::requirements() const {
   Requirements r;
   r.sun_shadows = sun.has_value() && sun->shadows;
-  r.cascades = !r.sun_shadows                               ? 0
-                : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
-                                                          : shadows.cascades;
+  r.cascades = !r.sun_shadows                            ? 0
+               : shadows.layout == ShadowLayout::clipmap ? shadows.clipmap_levels
+                                                         : shadows.cascades;
   // Only the lights the renderer shades get maps (a scene built in code may hold more).
   for (std::size_t i = 0; i < spots.size() && i < kMaxSpotLights; ++i) {
     const SpotLight& spot = spots[i];
@@ -106,8 +106,8 @@ Scene::Requirements Scene::requirements() const {
   }
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
   r.contact_pass = contact.step_count > 0 && has_light;
-  r.temporal = shadows.temporal &&
-               (r.sun_shadows || r.spot_shadow_maps > 0 || r.point_shadow_cubes > 0);
+  r.temporal =
+      shadows.temporal && (r.sun_shadows || r.spot_shadow_maps > 0 || r.point_shadow_cubes > 0);
   for (const Instance& instance : instances) {
     if (instance.material < materials.size() &&
         materials[instance.material].alpha == AlphaMode::masked) {
@@ -163,8 +163,7 @@ int Scene::mask_image_index(std::uint32_t material) const {
 
 int Scene::mask_image_index(std::uint32_t material,
                             const std::vector<std::shared_ptr<const MaskImage>>& images) const {
-  if (material >= materials.size() || materials[material].mask != MaskPattern::texture)
-    return -1;
+  if (material >= materials.size() || materials[material].mask != MaskPattern::texture) return -1;
   for (size_t i = 0; i < images.size(); ++i)
     if (same_mask_image(images[i], materials[material].mask_image)) return int(i);
   return -1;
@@ -186,6 +185,24 @@ int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool 
       return 1;  // one bilinear fetch of the blurred moments (the blur is its own pass)
   }
   return 1;
+}
+
+double filter_reach_texels(Filter filter, const ShadowSettings& shadows) {
+  switch (filter) {
+    case Filter::hard:
+      return 1.0;
+    case Filter::pcf:
+      return double(std::clamp(shadows.pcf_radius, 0, 5)) + 1.0;
+    case Filter::poisson:
+      return std::ceil(std::max(1.0, double(shadows.pcf_radius) + 0.5)) + 1.0;
+    case Filter::pcss:
+      return std::ceil(std::max(double(shadows.pcss_search_texels),
+                                double(shadows.pcss_max_filter_texels))) +
+             1.0;
+    case Filter::evsm2:
+      return double(std::clamp(shadows.evsm_blur, 0, 8)) + 1.0;
+  }
+  return 1.0;
 }
 
 std::vector<std::string> shipped_scenes() {

@@ -60,6 +60,12 @@ if os.path.isfile(os.path.join(out, "bench.csv")):
         for key in ("mean_abs", "rmse", "p99", "false_light", "false_shadow"):
             v = float(row[key])
             check(math.isfinite(v) and 0.0 <= v <= 1.0, f"{row['config']}: {key} = {v}")
+        # Acne and leaks are fractions; the contact gap is >= 0 texels, or empty (no contact).
+        for key in ("acne", "leak"):
+            v = float(row[key]) if row[key] != "" else float("nan")
+            check(0.0 <= v <= 1.0, f"{row['config']}: {key} = {row[key]!r}")
+        gap = row["contact_gap_texels"]
+        check(gap == "" or float(gap) >= 0.0, f"{row['config']}: contact gap {gap!r}")
         for key in ("shadow_ms", "frame_ms"):
             v = float(row[key])
             check(math.isfinite(v) and v > 0.0, f"{row['config']}: {key} = {v}")

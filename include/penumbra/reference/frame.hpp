@@ -5,6 +5,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <penumbra/reference/failure_modes.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/reference/reference.hpp>
 #include <penumbra/render/renderer.hpp>
@@ -19,6 +20,12 @@ struct LightMeasurement {
   std::vector<ReceiverClass> classes;
   std::vector<float> n_dot_l;  // cosine to the light's centre, 0 where it does not reach
   Metrics metrics;
+  // Acne, leaks and the contact gap apart (failure_modes.hpp); with MeasureOptions::failure_modes.
+  bool has_failure_modes = false;
+  std::vector<float> texel_world;  // per receiver: one texel of this light's map there, metres
+  CasterProbe probe;
+  FailureModes failure;
+  std::vector<FailureMode> modes;
 };
 
 struct FrameMeasurement {
@@ -34,6 +41,10 @@ struct MeasureOptions {
   MetricsOptions metrics;
   std::optional<std::filesystem::path> cache_dir;  // nullopt: no cache
   std::vector<std::string> lights;                 // names ("sun", "spot0"); empty: all
+  // Tell acne, leaks and the contact gap apart (rays of its own per receiver: about as many as
+  // a hard light's reference, more in the umbra).
+  bool failure_modes = false;
+  FailureModeOptions failure;
 };
 
 // The accuracy budget of a light against the reference (issue 13's, for every shipped scene):
@@ -56,6 +67,14 @@ double umbra_kept(const LightMeasurement& light, size_t* umbra_count = nullptr,
 // 1.00%"); empty when it is within.
 std::vector<std::string> budget_violations(const LightMeasurement& light,
                                            const AccuracyBudget& budget);
+
+// Per receiver, the world size of one texel of the light's shadow map there (NaN where the
+// light has no map or the receiver is outside it): the sun's from the cascade the GPU chose
+// (shadow_info, as Renderer::read_shadow_info gives it), a spot's and a point light's from their
+// projection at the receiver's depth along the map's axis.
+std::vector<float> light_texel_sizes(const scene::Scene& scene, const LightRef& light,
+                                     const Receivers& receivers, uint32_t width, uint32_t height,
+                                     std::span<const float> shadow_info);
 
 // The read_visibility() slot of a light.
 uint32_t visibility_slot(const LightRef& light);

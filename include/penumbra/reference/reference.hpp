@@ -63,8 +63,8 @@ struct TraceOptions {
   uint32_t samples = 256;         // rays per receiver where visibility is partial (>= 1)
   uint32_t initial_samples = 16;  // adaptive: stop after these when they all agree
   bool adaptive = true;
-  uint64_t seed = 1;     // same seed, same bits
-  uint32_t threads = 0;  // 0: every hardware thread
+  uint64_t seed = 1;      // same seed, same bits
+  uint32_t threads = 0;   // 0: every hardware thread
   bool progress = false;  // a progress bar on stderr when it is a terminal
   std::string progress_label = "reference";
   Terminator terminator = Terminator::smooth;
@@ -89,8 +89,8 @@ struct Visibility {
 // Receivers: positions relative to the render origin (double) and unit normals; a receiver
 // with valid == 0 is not traced (sky).
 struct Receivers {
-  uint32_t width = 0, height = 0;  // an image's size, or count × 1 for explicit points
-  glm::dvec3 origin{0.0};          // world position of the relative space's origin
+  uint32_t width = 0, height = 0;    // an image's size, or count × 1 for explicit points
+  glm::dvec3 origin{0.0};            // world position of the relative space's origin
   std::vector<glm::dvec3> position;  // relative to origin
   std::vector<glm::dvec3> normal;    // world orientation, unit
   std::vector<uint8_t> valid;
@@ -131,6 +131,11 @@ class Tracer {
 
   Visibility trace(const Receivers& receivers, const AreaLight& light,
                    const TraceOptions& options) const;
+
+  // One shadow ray: true when a caster lies on the segment from `origin_relative` (relative to
+  // origin()) along unit `direction` up to `tfar` (inf: unbounded). Masks are alpha-tested as in
+  // trace(); no triangle is ignored. Thread-safe.
+  bool blocked(const glm::dvec3& origin_relative, const glm::dvec3& direction, double tfar) const;
 
   size_t triangle_count() const;
   glm::dvec3 origin() const;

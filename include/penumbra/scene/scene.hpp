@@ -55,11 +55,11 @@ struct Material {
   std::string name;
   glm::vec3 albedo{0.8f};
   AlphaMode alpha = AlphaMode::opaque;
-  MaskPattern mask = MaskPattern::none;  // none <=> alpha == opaque
-  std::filesystem::path mask_texture;    // absolute; set only for MaskPattern::texture
+  MaskPattern mask = MaskPattern::none;         // none <=> alpha == opaque
+  std::filesystem::path mask_texture;           // absolute; set only for MaskPattern::texture
   std::shared_ptr<const MaskImage> mask_image;  // mask_texture's texels (MaskPattern::texture)
-  glm::vec2 mask_scale{1.0f};            // repetitions of the pattern over uv [0, 1]
-  float alpha_cutoff = 0.5f;             // in (0, 1): mask < cutoff is cut out
+  glm::vec2 mask_scale{1.0f};                   // repetitions of the pattern over uv [0, 1]
+  float alpha_cutoff = 0.5f;                    // in (0, 1): mask < cutoff is cut out
 };
 
 // A material's coverage at uv (its texture or its procedural pattern; 1 when opaque), and whether
@@ -164,8 +164,8 @@ struct ShadowSettings {
   // The sun's maps: PSSM cascades over view distance, or a clipmap (camera-centred nested
   // squares, level i 2^i times as wide as level 0, selected by position; docs/cascades.md).
   ShadowLayout layout = ShadowLayout::cascades;
-  std::uint32_t clipmap_levels = 6;  // in [1, 8]
-  float clipmap_extent = 16.0f;      // metres: the full width of level 0, > 0
+  std::uint32_t clipmap_levels = 6;                       // in [1, 8]
+  float clipmap_extent = 16.0f;                           // metres: the full width of level 0, > 0
   bool snap_to_texels = kCascadeDefaults.snap_to_texels;  // cascades move by whole texels
   int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 5]
   // PCF and Poisson keep their world width across cascades (a disk sized in cascade 0's texels).
@@ -181,9 +181,9 @@ struct ShadowSettings {
   float fade_band = float(kCascadeDefaults.fade_fraction);    // of max_distance, in [0, 1]
   // World-unit biases (docs/accuracy.md has the measurements behind the defaults).
   float normal_offset_texels = 0.75f;  // texels at the receiver, >= 0
-  float slope_bias = 2.0f;            // texels of depth change across one texel, >= 0
-  float max_slope_bias = 4.0f;        // bound of the slope term, texels, >= 0
-  float constant_bias = 0.0005f;      // metres along the light, >= 0
+  float slope_bias = 2.0f;             // texels of depth change across one texel, >= 0
+  float max_slope_bias = 4.0f;         // bound of the slope term, texels, >= 0
+  float constant_bias = 0.0005f;       // metres along the light, >= 0
   bool reverse_z = true;
   // Temporal accumulation of every light's visibility (the shadow-temporal pass): each pixel
   // blends its visibility into the last frame's, reprojected through the depth buffer and
@@ -264,7 +264,7 @@ struct Scene {
 
   // What the scene requires; the renderer creates passes, images and variants only for these.
   struct Requirements {
-    bool sun_shadows = false;              // a sun with shadows = true
+    bool sun_shadows = false;  // a sun with shadows = true
     // sun_shadows: shadows.cascades, or shadows.clipmap_levels with the clipmap layout; else 0
     std::uint32_t cascades = 0;
     std::uint32_t spot_shadow_maps = 0;    // spots with shadows = true
@@ -278,7 +278,7 @@ struct Scene {
     // (spot_shadow_maps) > 0.
     bool point_moments = false;
     bool spot_moments = false;
-    std::uint32_t analytic_spheres = 0;    // instances with analytic_shadow, if a light is shadowed
+    std::uint32_t analytic_spheres = 0;  // instances with analytic_shadow, if a light is shadowed
     bool operator==(const Requirements&) const = default;
   };
   Requirements requirements() const;
@@ -319,6 +319,11 @@ std::vector<std::string> shipped_scenes();
 // 32+64), an upper bound: pixels with no blocker or a full one skip the filter. Cascade blend
 // bands evaluate the sun's filter twice and are not counted.
 int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube);
+// Texels a filter reads beyond the receiver's own, as the sun's resolve counts them for cascade
+// containment (shadow_resolve.comp's filter_reach_texels): hard 1 (a bilinear compare tap), PCF
+// r + 1, Poisson its disk's radius + 1, PCSS the wider of its blocker search and its largest
+// filter + 1, EVSM2 its blur + 1.
+double filter_reach_texels(Filter filter, const ShadowSettings& shadows);
 
 // The names used in scene files, for printing.
 std::string_view to_string(Filter filter);
