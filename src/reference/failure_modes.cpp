@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/reference/failure_modes.hpp>
 #include <thread>
 
@@ -185,17 +186,14 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
         queue.push_back(j);
       }
   }
-  if (f.contact_receivers > 0) {
-    f.contact_gap_texels = 0.0;
-    f.contact_gap_world = 0.0;
-  }
+  std::vector<double> gap_texels, gap_world;
   for (size_t i = 0; i < n; ++i) {
     if (!measured(i)) continue;
     const double r = reference.value[i], g = v[i];
     if (in_gap[i]) {
       ++f.gap_receivers;
-      f.contact_gap_texels = std::max(f.contact_gap_texels, x_texels[i]);
-      f.contact_gap_world = std::max(f.contact_gap_world, double(probe.contact_distance[i]));
+      gap_texels.push_back(x_texels[i]);
+      gap_world.push_back(double(probe.contact_distance[i]));
       if (modes) (*modes)[i] = FailureMode::gap;
       continue;
     }
@@ -204,6 +202,16 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
     if (g > r + t && r <= 0.0 && !probe.light_in_reach[i]) {
       ++f.leak_receivers;
       if (modes) (*modes)[i] = FailureMode::leak;
+    }
+  }
+  if (f.contact_receivers > 0) {
+    // The gap's width: how far from the contact its receivers reach (the 95th percentile, so
+    // that a few far pixels a thin lit sliver connects do not make it; the maximum apart).
+    f.contact_gap_texels = f.contact_gap_world = f.contact_gap_max_texels = 0.0;
+    if (!gap_texels.empty()) {
+      f.contact_gap_texels = stats::quantile(gap_texels, 0.95);
+      f.contact_gap_world = stats::quantile(gap_world, 0.95);
+      f.contact_gap_max_texels = *std::max_element(gap_texels.begin(), gap_texels.end());
     }
   }
   f.acne = f.clear_receivers ? double(f.acne_receivers) / double(f.clear_receivers) : 0.0;
@@ -217,6 +225,7 @@ std::string FailureModes::to_json() const {
          ", \"leak\": " + number(leak) + ", \"leak_receivers\": " + std::to_string(leak_receivers) +
          ", \"contact_gap_texels\": " + number(contact_gap_texels) +
          ", \"contact_gap_world\": " + number(contact_gap_world) +
+         ", \"contact_gap_max_texels\": " + number(contact_gap_max_texels) +
          ", \"contact_receivers\": " + std::to_string(contact_receivers) +
          ", \"gap_receivers\": " + std::to_string(gap_receivers);
 }

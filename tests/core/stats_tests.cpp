@@ -15,6 +15,15 @@ TEST(Stats, MedianOfOddEvenAndEmpty) {
   EXPECT_TRUE(std::isnan(median({})));
 }
 
+TEST(Stats, QuantilesInterpolateBetweenOrderStatistics) {
+  EXPECT_EQ(penumbra::stats::quantile({4.0, 1.0, 3.0, 2.0}, 0.0), 1.0);
+  EXPECT_EQ(penumbra::stats::quantile({4.0, 1.0, 3.0, 2.0}, 1.0), 4.0);
+  EXPECT_DOUBLE_EQ(penumbra::stats::quantile({4.0, 1.0, 3.0, 2.0}, 0.5), 2.5);
+  EXPECT_DOUBLE_EQ(penumbra::stats::quantile({0.0, 10.0}, 0.95), 9.5);
+  EXPECT_TRUE(std::isnan(penumbra::stats::quantile({}, 0.5)));
+  EXPECT_TRUE(std::isnan(penumbra::stats::quantile({1.0}, 1.5)));
+}
+
 TEST(Stats, AnExactLineHasZeroErrorAndIsSignificant) {
   const std::vector<double> x{1, 4, 9, 16, 25, 36, 49, 64};
   std::vector<double> y;

@@ -92,9 +92,12 @@ TEST(FailureModes, AKnownBiasShowsAKnownContactGap) {
     for (size_t i = 0; i < v.size(); ++i)
       if (probe.blocker_distance[i] < bias) v[i] = 1.0f;
     const FailureModes f = compute_failure_modes(v, truth, classes, probe, s.texels(), 0);
+    // The gap's receivers lie evenly over [0, want) texels from the contact (one every 0.05):
+    // the largest is want, the 95th percentile 0.95 want.
     const double want = bias * std::cos(kElevation) / kTexel;  // texels
-    EXPECT_NEAR(f.contact_gap_texels, want, 0.25) << "bias " << bias;
-    EXPECT_NEAR(f.contact_gap_world, want * kTexel, 0.25 * kTexel) << "bias " << bias;
+    EXPECT_NEAR(f.contact_gap_max_texels, want, 0.06) << "bias " << bias;
+    EXPECT_NEAR(f.contact_gap_texels, 0.95 * want, 0.06) << "bias " << bias;
+    EXPECT_NEAR(f.contact_gap_world, 0.95 * want * kTexel, 0.06 * kTexel) << "bias " << bias;
     EXPECT_EQ(f.leak_receivers, 0u) << "the gap is not a leak, bias " << bias;
     EXPECT_EQ(f.acne_receivers, 0u);
     EXPECT_NEAR(double(f.contact_receivers), 0.64 / 0.0005, 2.0);  // within 64 texels

@@ -19,6 +19,17 @@ inline double median(std::vector<double> v) {
   return n % 2 ? v[n / 2] : 0.5 * (v[n / 2 - 1] + v[n / 2]);
 }
 
+// The q-quantile of `v` (q in [0, 1]) by linear interpolation between order statistics (the
+// "type 7" rule: q = 0 the minimum, q = 1 the maximum, 0.5 the median); NaN when empty.
+inline double quantile(std::vector<double> v, double q) {
+  if (v.empty() || !(q >= 0.0 && q <= 1.0)) return std::nan("");
+  std::sort(v.begin(), v.end());
+  const double h = q * double(v.size() - 1);
+  const size_t lo = size_t(std::floor(h));
+  const size_t hi = std::min(lo + 1, v.size() - 1);
+  return v[lo] + (h - double(lo)) * (v[hi] - v[lo]);
+}
+
 // y = intercept + slope * x by ordinary least squares over n points.
 struct LineFit {
   double intercept = std::nan("");

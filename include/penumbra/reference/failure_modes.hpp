@@ -18,7 +18,8 @@
 //               receiver) is under max_contact_texels texels of the light's map there. The gap
 //               is the ones the GPU lights (V >= 0.5) that are connected, through such lit
 //               receivers (4-neighbours in the image), to one within seed_texels of the contact;
-//               its width is their largest distance from the contact, in texels and metres.
+//               its width is how far from the contact they reach: the 95th percentile of their
+//               distances, in texels and in metres (and the largest, apart).
 //               Lit speckles off the contact are not the gap (they are leaks, below).
 //   leak        false light (V > R + t) outside the gap on receivers the truth puts in full
 //               shadow (R = 0) with the light's centre hidden from every point of the same ring
@@ -78,6 +79,7 @@ struct FailureModes {
   // contact is seen (no umbra receiver within max_contact_texels of one).
   double contact_gap_texels = std::numeric_limits<double>::quiet_NaN();
   double contact_gap_world = std::numeric_limits<double>::quiet_NaN();
+  double contact_gap_max_texels = std::numeric_limits<double>::quiet_NaN();
   std::string to_json() const;  // the members above as JSON fields (no braces)
 };
 
