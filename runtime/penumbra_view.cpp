@@ -48,6 +48,7 @@ struct Options {
   std::string filter;
   uint32_t width = 0, height = 0;
   bool list_devices = false;
+  bool list_params = false;
   fs::path shader_dir;  // empty: the repo's shaders/
   bool watch = false;
   bool exit_after_frames = false;  // window: close after --frames presented frames
@@ -113,6 +114,7 @@ void usage() {
   std::printf(
       "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
+      "                     [--list-params]\n"
       "                     [--shader-dir DIR] [--watch] [--debounce-ms N]\n"
       "                     [--exit-after-frames] [--no-ui]\n"
       "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
@@ -129,6 +131,8 @@ void usage() {
       "  --filter      %s (default: the scene's)\n"
       "  --set         override a parameter-table key after loading, e.g.\n"
       "                --set shadows.pcf_radius=2 (docs/scenes.md lists the keys)\n"
+      "  --list-params print the parameter table as JSON (key, type, range, choices, doc,\n"
+      "                default) with the scene's values after --set, and exit\n"
       "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
@@ -177,6 +181,8 @@ Options parse(int argc, char** argv) {
       o.height = parse_uint("--size " + v + ": height", v.substr(x + 1), 16, 16384);
     } else if (a == "--list-devices")
       o.list_devices = true;
+    else if (a == "--list-params")
+      o.list_params = true;
     else if (a == "--shader-dir") {
       o.shader_dir = value();
       if (!fs::is_directory(o.shader_dir))
@@ -398,6 +404,14 @@ int run(int argc, char** argv) {
   const Options o = parse(argc, argv);
   if (o.list_devices) {
     std::printf("%s", penumbra::gpu::Context::list_devices().c_str());
+    return 0;
+  }
+  if (o.list_params) {  // the table and the scene's values, without a device
+    penumbra::scene::Scene scene =
+        penumbra::scene::load_scene(penumbra::scene::find_scene(o.scene));
+    if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
+    penumbra::scene::set_params(scene, o.sets);
+    std::printf("%s", penumbra::scene::params_json(&scene).c_str());
     return 0;
   }
   const bool display =

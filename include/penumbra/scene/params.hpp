@@ -120,6 +120,10 @@ std::string default_text(const Param& p);
 // row of a table, one per line (a test checks docs/scenes.md holds each).
 std::string markdown_row(const Param& p);
 std::string markdown_rows(std::string_view table);
+// Every row as a JSON array: key, type, apply, range (lo, hi: null when open-ended; lo_open,
+// hi_open), choices, doc, default (as docs/scenes.md writes it) and, with a scene, its value
+// as get shows it (null where its table is absent). penumbra-view --list-params prints it.
+std::string params_json(const Scene* scene);
 
 // get/set by key and text, with the row's checks; set leaves the scene unchanged on error.
 std::string get_param(const Scene& scene, std::string_view key);

@@ -1,0 +1,86 @@
+// The parameter table as JSON, for tools outside C++ (penumbra-tune reads its search space's
+// keys, types, ranges and a scene's values from it: penumbra-view --list-params).
+#include <cmath>
+#include <cstdio>
+#include <penumbra/scene/params.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <sstream>
+
+namespace penumbra::scene {
+namespace {
+
+std::string json_string(std::string_view s) {
+  std::string out = "\"";
+  for (char c : s) {
+    if (c == '"' || c == '\\') out += '\\';
+    if (static_cast<unsigned char>(c) < 0x20) continue;
+    out += c;
+  }
+  return out + "\"";
+}
+
+std::string json_number(double v) {
+  if (!std::isfinite(v)) return "null";  // an open-ended bound
+  char b[40];
+  std::snprintf(b, sizeof b, "%.17g", v);
+  return b;
+}
+
+const char* type_name(ParamType t) {
+  switch (t) {
+    case ParamType::number:
+      return "number";
+    case ParamType::integer:
+      return "integer";
+    case ParamType::boolean:
+      return "boolean";
+    case ParamType::choice:
+      return "choice";
+    case ParamType::vec3:
+      return "vec3";
+    case ParamType::direction:
+      return "direction";
+  }
+  return "number";
+}
+
+const char* apply_name(ParamApply a) {
+  switch (a) {
+    case ParamApply::frame:
+      return "frame";
+    case ParamApply::rebuild:
+      return "rebuild";
+    case ParamApply::file_only:
+      return "file_only";
+  }
+  return "frame";
+}
+
+}  // namespace
+
+std::string params_json(const Scene* scene) {
+  std::ostringstream o;
+  o << "[";
+  bool first = true;
+  for (const Param& p : params()) {
+    o << (first ? "\n" : ",\n") << " {\"key\": " << json_string(p.key)
+      << ", \"type\": " << json_string(type_name(p.type))
+      << ", \"apply\": " << json_string(apply_name(p.apply))
+      << ", \"range\": {\"lo\": " << json_number(p.range.lo)
+      << ", \"hi\": " << json_number(p.range.hi)
+      << ", \"lo_open\": " << (p.range.lo_open ? "true" : "false")
+      << ", \"hi_open\": " << (p.range.hi_open ? "true" : "false") << "}, \"choices\": [";
+    for (size_t i = 0; i < p.choices.size(); ++i) o << (i ? ", " : "") << json_string(p.choices[i]);
+    o << "], \"doc\": " << json_string(p.doc) << ", \"default\": " << json_string(default_text(p));
+    if (scene) {
+      const auto v = p.get ? p.get(*scene) : std::nullopt;
+      o << ", \"value\": " << (v ? json_string(format_value(p, *v)) : std::string("null"));
+    }
+    o << "}";
+    first = false;
+  }
+  o << "\n]\n";
+  return o.str();
+}
+
+}  // namespace penumbra::scene

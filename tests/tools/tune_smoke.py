@@ -1,0 +1,200 @@
+"""penumbra-tune on a small scene: the outputs and the defaults' point, a resumed run measures only
+the rest, an interrupted run keeps what it measured, a pick is written into the scene file
+atomically and reads back, an impossible budget, an unknown objective, a scene without lights and
+a scene with a typo each fail with a message naming what is wrong; the scene patcher on its own.
+Usage: tune_smoke.py TUNE BUILD_DIR WORK_DIR"""
+import csv
+import json
+import math
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+tune, build, work = sys.argv[1:4]
+sys.path.insert(0, os.path.dirname(os.path.abspath(tune)))
+from penumbra import scenefile  # noqa: E402
+
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+failures = []
+
+
+def check(ok, what):
+    if not ok:
+        failures.append(what)
+
+
+SCENE = """# A box on a plane under a sun: the smallest scene with a shadow to tune.
+name = "tiny"
+
+[camera]
+position = [0, 2, 4]
+target = [0, 0.3, 0]
+
+[sun]
+direction = [-0.4, -0.8, -0.3]
+angular_diameter = 0.53
+
+[shadows]
+filter = "pcf"  # the scene's own choice
+pcf_radius = 1
+cascades = 2
+resolution = 512
+
+[[object]]
+mesh = "plane"
+scale = [8, 1, 8]
+
+[[object]]
+mesh = "box"
+position = [0, 0.5, 0]
+"""
+scene = os.path.join(work, "tiny.toml")
+with open(scene, "w") as f:
+    f.write(SCENE)
+env = dict(os.environ, PENUMBRA_BUILD=build)
+base = [sys.executable, tune, "--scene", scene, "--quick", "--size", "96x54", "--frames", "1",
+        "--path-frames", "2"]
+
+
+def run(args, **kw):
+    return subprocess.run(base + args, capture_output=True, text=True, env=env, **kw)
+
+
+def _num(text):
+    try:
+        return float(text)
+    except (TypeError, ValueError):
+        return None
+
+
+def points(out):
+    with open(os.path.join(out, "points.jsonl")) as f:
+        return [json.loads(line) for line in f if line.strip()]
+
+
+out = os.path.join(work, "out")
+r = run(["--trials", "3", "--out", out])
+check(r.returncode == 0, f"a 3-point run exited {r.returncode}:\n{r.stdout}{r.stderr}")
+for name in ("points.csv", "frontier.csv", "tune.json", "frontier.png", "study.db",
+             "points.jsonl"):
+    check(os.path.isfile(os.path.join(out, name)), f"{name} missing")
+if os.path.isfile(os.path.join(out, "tune.json")):
+    with open(os.path.join(out, "tune.json")) as f:
+        summary = json.load(f)
+    check(summary["points"] == 3, f"{summary['points']} points, expected 3")
+    d = summary["defaults"]
+    check(d is not None and d["defaults"], "the defaults were not measured")
+    if d:
+        # The scene's own settings, as the search space names them (a sun: its cascades).
+        check(d["sets"].get("shadows.filter") == "pcf" and d["sets"].get("shadows.pcf_radius")
+              == "1" and d["sets"].get("shadows.cascades") == "2" and
+              d["sets"].get("shadows.resolution") == "512", f"defaults' settings {d['sets']}")
+        check("contact.steps" not in d["sets"], "a scene without [contact] searches no contact "
+              f"keys: {d['sets']}")
+    for p in summary["frontier"]:
+        for k in ("ms", "path_error", "flicker", "acne", "gap", "still_error"):
+            v = p[k]
+            check(math.isfinite(v) and v >= 0.0, f"trial {p['trial']}: {k} = {v}")
+        check(p["ms"] > 0 and p["path_error"] <= 1 and p["flicker"] <= 1 and p["acne"] <= 1,
+              f"trial {p['trial']}: out of range {p}")
+    check(isinstance(summary["defaults_on_frontier"], bool), "defaults_on_frontier")
+    with open(os.path.join(out, "points.csv")) as f:
+        check(len(list(csv.DictReader(f))) == 3, "points.csv rows")
+
+# Resumed: the same command with more trials measures only the new ones.
+r = run(["--trials", "4", "--out", out])
+check(r.returncode == 0 and "resuming" in r.stdout and "3 points measured, 1 to go" in r.stdout,
+      f"resume:\n{r.stdout}{r.stderr}")
+check(len(points(out)) <= 4, f"{len(points(out))} measured in points.jsonl")
+
+# Interrupted after the first point: it stops there, keeps it and says how to resume.
+out2 = os.path.join(work, "interrupted")
+p = subprocess.Popen(base + ["--trials", "50", "--out", out2], stdout=subprocess.PIPE,
+                     stderr=subprocess.PIPE, text=True, env=env)
+deadline = time.monotonic() + 600
+while time.monotonic() < deadline and p.poll() is None:
+    if os.path.isfile(os.path.join(out2, "points.jsonl")) and points(out2):
+        p.send_signal(signal.SIGINT)
+        break
+    time.sleep(0.2)
+stdout, stderr = p.communicate(timeout=600)
+check(p.returncode == 0 and "run the same command again to resume" in stderr,
+      f"interrupted run exited {p.returncode}:\n{stdout}{stderr[-2000:]}")
+check(1 <= len(points(out2)) < 50, f"interrupted run kept {len(points(out2))} points")
+check(os.path.isfile(os.path.join(out2, "tune.json")), "interrupted run wrote no tune.json")
+
+# A pick written into a copy of the scene: atomically, read back by penumbra-view.
+copy = os.path.join(work, "copy.toml")
+shutil.copy(scene, copy)
+r = subprocess.run([sys.executable, tune, "--scene", copy, "--quick", "--size", "96x54",
+                    "--frames", "1", "--path-frames", "2", "--trials", "3", "--out",
+                    os.path.join(work, "copy-out"), "--pick", "1", "--write"],
+                   capture_output=True, text=True, env=env)
+check(r.returncode == 0 and "pick:" in r.stdout, f"--write:\n{r.stdout}{r.stderr}")
+with open(copy) as f:
+    written = f.read()
+check(written.startswith("# A box on a plane"), "the scene's comments were lost")
+check("penumbra-tune" in written and "wrote" in r.stdout, f"nothing written:\n{r.stdout}")
+# What was written is trial 1's settings, as penumbra-view reads the file back.
+with open(os.path.join(work, "copy-out", "tune.json")) as f:
+    picked = json.load(f)["pick"]["sets"]
+table = {row["key"]: row["value"] for row in json.loads(subprocess.run(
+    [os.path.join(build, "runtime", "penumbra-view"), "--scene", copy, "--list-params"],
+    capture_output=True, text=True).stdout or "[]")}
+for key, value in picked.items():
+    same = (table.get(key) == value or
+            (key in table and table[key] is not None and _num(table[key]) is not None and
+             _num(value) is not None and math.isclose(_num(table[key]), _num(value),
+                                                      rel_tol=1e-5)))
+    check(same, f"{key}: the file reads back {table.get(key)!r}, trial 1 had {value!r}")
+r = subprocess.run([sys.executable, tune, "--scene", copy, "--out", os.path.join(work,
+                    "copy-out"), "--pick", "99", "--quick", "--size", "96x54", "--frames", "1",
+                    "--path-frames", "2", "--trials", "3"], capture_output=True, text=True,
+                   env=env)
+check(r.returncode != 0 and "--pick 99: no measured trial" in r.stderr,
+      f"--pick of a trial not measured:\n{r.stderr}")
+check(not [n for n in os.listdir(work) if n.startswith(".penumbra")], "a temporary file was left")
+view = os.path.join(build, "runtime", "penumbra-view")
+check(subprocess.run([view, "--scene", copy, "--list-params"], capture_output=True).returncode
+      == 0, "the written scene does not load")
+
+# Bad input: each a message naming what is wrong, and a non-zero exit.
+r = run(["--trials", "3", "--out", out, "--budget-ms", "0.000001"])
+check(r.returncode != 0 and "no measured point meets ms <= 1e-06" in r.stderr,
+      f"impossible budget:\n{r.stderr}")
+r = run(["--out", out, "--max", "speed=1"])
+check(r.returncode != 0 and "--max speed=1" in r.stderr, f"unknown objective:\n{r.stderr}")
+dark = os.path.join(work, "dark.toml")
+with open(dark, "w") as f:
+    f.write('name = "dark"\n[[object]]\nmesh = "plane"\n')
+r = subprocess.run([sys.executable, tune, "--scene", dark, "--out", os.path.join(work, "d")],
+                   capture_output=True, text=True, env=env)
+check(r.returncode != 0 and "has no lights" in r.stderr, f"no lights:\n{r.stderr}")
+typo = os.path.join(work, "typo.toml")
+with open(typo, "w") as f:
+    f.write(SCENE.replace("pcf_radius = 1", "pcf_radius = 1\npcf_radus = 2"))
+r = subprocess.run([sys.executable, tune, "--scene", typo, "--out", os.path.join(work, "t")],
+                   capture_output=True, text=True, env=env)
+check(r.returncode != 0 and "typo.toml:15" in r.stderr, f"typo:\n{r.stderr}")
+
+# The patcher: a key replaced in place, one added to its table, a table added; nothing else.
+text = '# top\n[shadows]\nfilter = "pcf"  # old\n\n[[material]]\nname = "m"\n'
+got = scenefile.patched_text(text, {"shadows.filter": "hard", "shadows.pcf_radius": 2,
+                                    "contact.steps": 0, "shadows.temporal": True}, "n")
+want = ('# top\n[shadows]\nfilter = "hard"  # n\npcf_radius = 2  # n\ntemporal = true  # n\n\n'
+        '[[material]]\nname = "m"\n\n[contact]\nsteps = 0  # n\n')
+check(got == want, f"patched text:\n{got!r}\nwanted\n{want!r}")
+try:
+    scenefile.write_atomic(os.path.join(work, "no-such-dir", "x.toml"), "x")
+    check(False, "a write into a missing folder must fail")
+except OSError:
+    pass
+
+if failures:
+    print("\n".join(failures))
+    sys.exit(1)
+print("penumbra-tune: outputs, resume, interruption, --write and bad input as expected")

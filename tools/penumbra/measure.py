@@ -1,0 +1,89 @@
+"""One configuration of a scene, measured: penumbra-view's GPU time per pass (Vulkan timestamp
+queries, the median over frames) and penumbra-reference's metrics against the ray-traced truth:
+the still frame, and along a camera path with the temporal history running (the error along the
+path, the flicker the truth does not have), acne, leaks and the contact gap per light."""
+import csv
+import json
+import math
+import os
+
+from .build import run
+
+# The objectives a point is scored on, all to minimise.
+OBJECTIVES = {
+    "ms": "GPU ms per frame (every pass: shadow maps, resolves, contact, temporal, lighting)",
+    "path_error": "mean |V - truth| along the camera path, temporal history running",
+    "flicker": "excess flicker: shadow-edge pixels that change where the truth holds still, "
+               "over the truth's edge pixels",
+    "acne": "false shadow with no caster in the filter's reach, of the clearly lit receivers "
+            "(the worst light)",
+    "gap": "contact gap in texels of the light's map (the worst light; 0 without a contact)",
+}
+# Differences below these are not differences (the frontier check's absolute floors).
+FLOORS = {"path_error": 2e-4, "still_error": 2e-4, "flicker": 1e-3, "acne": 2e-4, "gap": 0.25,
+          "ms": 0.0}
+
+
+def setargs(sets):
+    return [x for k, v in sorted(sets.items()) for x in ("--set", f"{k}={v}")]
+
+
+def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
+            path_frames=8):
+    """Returns a dict: the objectives (OBJECTIVES), still_error, per-light details, the
+    device and the passes' ms."""
+    os.makedirs(work, exist_ok=True)
+    size_arg = ["--size", size] if size else []
+    vout = os.path.join(work, "view")
+    run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view", "lit",
+         "--out", vout] + size_arg + setargs(sets))
+    passes, device = {}, ""
+    with open(os.path.join(vout, "timings.csv")) as f:
+        for row in csv.DictReader(f):
+            passes[row["pass"]] = float(row["median_ms"])
+            device = row["device"]
+    rout = os.path.join(work, "reference")
+    run([tools.reference, "--scene", scene, "--out", rout, "--flicker", path, "--flicker-frames",
+         str(path_frames), "--flicker-truth"] + size_arg + setargs(sets))
+    with open(os.path.join(rout, "metrics.json")) as f:
+        m = json.load(f)
+    return score(m, passes, device, path)
+
+
+def score(m, passes, device, path):
+    """The objectives from penumbra-reference's metrics.json and penumbra-view's pass times."""
+    lights = m["lights"]
+    weight = sum(l["receivers"] for l in lights)
+    flick = m.get("flicker", {}).get(path, {})
+
+    def weighted(key, rows):
+        w = sum(r[1] for r in rows)
+        return sum(r[0] * r[1] for r in rows) / w if w else 0.0
+
+    still = weighted("mean_abs", [(l["mean_abs"], l["receivers"]) for l in lights])
+    path_err = weighted("path", [(flick[l["light"]]["path_mean_abs_error"], l["receivers"])
+                                 for l in lights if l["light"] in flick])
+    truth_edges = sum(v.get("truth_edge_pixels", 0) for v in flick.values())
+    excess = sum(v.get("excess_changed", 0) for v in flick.values())
+
+    def worst(key):
+        vals = [l.get(key) for l in lights]
+        vals = [v for v in vals if v is not None and math.isfinite(v)]
+        return max(vals) if vals else 0.0
+
+    return {
+        "ms": sum(passes.values()),
+        "path_error": path_err,
+        "flicker": excess / truth_edges if truth_edges else 0.0,
+        "acne": worst("acne"),
+        "gap": worst("contact_gap_texels"),
+        "still_error": still,
+        "leak": worst("leak"),
+        "receivers": weight,
+        "device": device,
+        "passes": passes,
+        "lights": {l["light"]: {k: l.get(k) for k in
+                                ("mean_abs", "acne", "leak", "contact_gap_texels",
+                                 "contact_gap_world", "false_light", "false_shadow")}
+                   for l in lights},
+    }

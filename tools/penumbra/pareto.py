@@ -1,0 +1,28 @@
+"""Pareto frontiers of points with objectives to minimise (a dict of name -> value)."""
+
+
+def dominates(a, b, keys):
+    """a is no worse than b on every key and better on one."""
+    return all(a[k] <= b[k] for k in keys) and any(a[k] < b[k] for k in keys)
+
+
+def frontier(points, keys):
+    """The points no other point dominates (points: dicts holding every key)."""
+    return [p for p in points if not any(dominates(q, p, keys) for q in points if q is not p)]
+
+
+def beaten_by(d, points, cost, errors, relative=0.05, absolute=None):
+    """The points that beat `d` by more than the margin: no more costly (points[cost] <=
+    d[cost]), no worse on any error objective, and better than d on one by more than `relative`
+    of d's value plus that objective's `absolute` floor (small values: 0.0001 against 0.0002 is
+    no real difference). A `d` beaten by none sits on the frontier within the margin."""
+    absolute = absolute or {}
+    out = []
+    for p in points:
+        if p is d or p[cost] > d[cost]:
+            continue
+        if any(p[k] > d[k] for k in errors):
+            continue
+        if any(p[k] < d[k] * (1.0 - relative) - absolute.get(k, 0.0) for k in errors):
+            out.append(p)
+    return out
