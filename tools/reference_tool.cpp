@@ -7,7 +7,9 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <map>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/validation.hpp>
 #include <penumbra/reference/frame.hpp>
@@ -34,6 +36,7 @@ struct Options {
   fs::path cache_dir;
   std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
   std::vector<penumbra::reference::CameraPath> flicker;   // --flicker
+  uint32_t timing_frames = 0;                             // --timing-frames
   penumbra::reference::FlickerOptions flicker_options;
 };
 
@@ -46,7 +49,7 @@ void usage(FILE* f) {
       "                          [--terminator smooth|geometric]\n"
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
-      "                          [--flicker-truth] [--no-failure-modes]\n"
+      "                          [--flicker-truth] [--no-failure-modes] [--timing-frames N]\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
       "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
@@ -59,6 +62,9 @@ void usage(FILE* f) {
       "  --seed       the sample sequence's seed (default 1)\n"
       "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
       "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
+      "  --timing-frames  after measuring, render N frames with a renderer as penumbra-view\n"
+      "               builds it (no visibility output) and write each pass's median GPU ms\n"
+      "               (Vulkan timestamp queries) into metrics.json's \"timings\"\n"
       "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
       "               rays; metrics.json's acne, leak and contact_gap_* fields, modes.png)\n"
       "  --threads    tracing threads (default: all)\n"
@@ -159,6 +165,8 @@ Options parse(int argc, char** argv) {
       o.flicker_options.frames = uint32_t(number(a, value(), 2, 10000));
     else if (a == "--flicker-truth")
       flicker_truth = true;
+    else if (a == "--timing-frames")
+      o.timing_frames = uint32_t(number(a, value(), 1, 10000));
     else if (a == "--no-failure-modes")
       o.measure.failure_modes = false;
     else if (a == "--help" || a == "-h") {
@@ -193,6 +201,7 @@ int run(int argc, char** argv) {
         o.cache_dir.empty() ? penumbra::reference::default_cache_dir() : o.cache_dir;
   o.measure.trace.progress = true;
   if (o.flicker_options.truth) o.flicker_options.truth->progress = true;
+  o.flicker_options.cache_dir = o.measure.cache_dir;  // the path's truth is shared the same way
 
   penumbra::gpu::Context ctx;
   penumbra::render::RendererOptions ro;
@@ -290,6 +299,27 @@ int run(int argc, char** argv) {
       header << "}";
     }
     header << "}, \"flicker_frames\": " << o.flicker_options.frames;
+  }
+  // GPU time per pass, as penumbra-view measures it (its renderer has no visibility output, which
+  // costs the resolves a write per light): the median over the frames, the first included.
+  if (o.timing_frames > 0) {
+    penumbra::render::RendererOptions plain = ro;
+    plain.visibility_output = false;
+    penumbra::render::Renderer timed(ctx, scene, plain);
+    std::map<std::string, std::vector<double>> samples;
+    std::vector<std::string> order;
+    for (uint32_t f = 0; f < o.timing_frames; ++f) {
+      timed.render(f);
+      for (const auto& t : timed.timings()) {
+        if (!samples.count(t.name)) order.push_back(t.name);
+        samples[t.name].push_back(t.gpu_ms);
+      }
+    }
+    header << ", \"timings\": {\"frames\": " << o.timing_frames << ", \"passes\": {";
+    for (size_t i = 0; i < order.size(); ++i)
+      header << (i ? ", " : "") << json_string(order[i]) << ": "
+             << penumbra::stats::median(samples[order[i]]);
+    header << "}}";
   }
   penumbra::reference::write_measurement(m, o.out, header.str());
   for (const auto& l : m.lights) {

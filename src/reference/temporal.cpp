@@ -5,11 +5,11 @@
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <memory>
-#include <utility>
 #include <penumbra/core/error.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/reference/temporal.hpp>
 #include <penumbra/render/frame_types.hpp>
+#include <utility>
 
 namespace penumbra::reference {
 namespace {
@@ -54,9 +54,8 @@ void apply(scene::Scene& s, const CameraPath& path, uint32_t k) {
       break;
     }
     case Motion::yaw:
-      s.camera.target =
-          s.camera.position +
-          rotate_about_up(s.camera.target - s.camera.position, s.camera.up, amount);
+      s.camera.target = s.camera.position +
+                        rotate_about_up(s.camera.target - s.camera.position, s.camera.up, amount);
       break;
     case Motion::sun_azimuth:
       if (s.sun) s.sun->direction = rotate_about_up(s.sun->direction, {0, 1, 0}, amount);
@@ -115,9 +114,9 @@ class Reprojection {
       : p_(previous), c_(current) {
     const Receivers& pr = previous.receivers;
     const Receivers& cr = current.receivers;
-    if (pr.width != cr.width || pr.height != cr.height ||
-        previous.visibility.size() != pr.size() || current.visibility.size() != cr.size() ||
-        previous.reached.size() != pr.size() || current.reached.size() != cr.size())
+    if (pr.width != cr.width || pr.height != cr.height || previous.visibility.size() != pr.size() ||
+        current.visibility.size() != cr.size() || previous.reached.size() != pr.size() ||
+        current.reached.size() != cr.size())
       throw Error("count_flicker: the two frames differ in size");
     prev_view_proj_ = previous.camera.proj * previous.camera.view;
     eye_ = cr.origin + cr.eye.value_or(glm::dvec3(0.0));
@@ -132,9 +131,8 @@ class Reprojection {
     if (!usable(cr, c_.reached, i)) return out;
     // A shadow edge in the current frame.
     const float v = c_.visibility[i];
-    const auto [lo, hi] = neighbourhood_range(c_.visibility, w, h, x, y, [&](size_t j) {
-      return usable(cr, c_.reached, j);
-    });
+    const auto [lo, hi] = neighbourhood_range(c_.visibility, w, h, x, y,
+                                              [&](size_t j) { return usable(cr, c_.reached, j); });
     out.edge = hi - lo >= kEdgeSpan || (v > kPenumbraLow && v < kPenumbraHigh);
     // Its world position in the previous frame's pixels (centre coordinates).
     const glm::dvec3 world = cr.origin + cr.position[i];
@@ -164,7 +162,8 @@ class Reprojection {
     }
     if (prev_hi < prev_lo) return out;
     out.measured = true;
-    out.changed = double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold);
+    out.changed =
+        double(v) < prev_lo - double(threshold) || double(v) > prev_hi + double(threshold);
     return out;
   }
 
@@ -217,8 +216,8 @@ std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSamp
   return out;
 }
 
-void count_excess_flicker(const FrameSample& previous, const FrameSample& current,
-                          float threshold, std::span<const uint8_t> excused, Flicker& flicker) {
+void count_excess_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
+                          std::span<const uint8_t> excused, Flicker& flicker) {
   const Reprojection r(previous, current);
   const uint32_t w = current.receivers.width, h = current.receivers.height;
   if (excused.size() != size_t{w} * h)
@@ -250,17 +249,15 @@ std::vector<float> accumulate_visibility(const FrameSample& previous, const Fram
                                          float weight) {
   const Receivers& pr = previous.receivers;
   const Receivers& cr = current.receivers;
-  if (pr.width != cr.width || pr.height != cr.height ||
-      previous.visibility.size() != pr.size() || current.visibility.size() != cr.size())
+  if (pr.width != cr.width || pr.height != cr.height || previous.visibility.size() != pr.size() ||
+      current.visibility.size() != cr.size())
     throw Error("accumulate_visibility: the two frames differ in size");
   const uint32_t w = cr.width, h = cr.height;
   const glm::dmat4 prev_view = previous.camera.view;
   const glm::dmat4 prev_proj = previous.camera.proj;
   // The last eye, relative to the last origin.
   const glm::dvec3 prev_eye = glm::dvec3(glm::inverse(prev_view) * glm::dvec4(0, 0, 0, 1));
-  auto distance_to_prev_eye = [&](size_t j) {
-    return glm::length(pr.position[j] - prev_eye);
-  };
+  auto distance_to_prev_eye = [&](size_t j) { return glm::length(pr.position[j] - prev_eye); };
   std::vector<float> out = current.visibility;
   for (uint32_t y = 0; y < h; ++y)
     for (uint32_t x = 0; x < w; ++x) {
@@ -281,13 +278,12 @@ std::vector<float> accumulate_visibility(const FrameSample& previous, const Fram
       for (int k = 0; k < 4; ++k) {
         const double qx = fx + (k & 1), qy = fy + (k >> 1);
         const double tap = ((k & 1) ? ax : 1.0 - ax) * ((k >> 1) ? ay : 1.0 - ay);
-        if (tap <= kNeighbourWeight || qx < 0.0 || qy < 0.0 || qx >= double(w) ||
-            qy >= double(h))
+        if (tap <= kNeighbourWeight || qx < 0.0 || qy < 0.0 || qx >= double(w) || qy >= double(h))
           continue;
         const size_t j = size_t(qy) * w + size_t(qx);
         if (!pr.valid[j]) continue;
-        const double tolerance =
-            double(render::kTemporalSurfaceFraction) * expected + double(render::kTemporalSurfaceConstant);
+        const double tolerance = double(render::kTemporalSurfaceFraction) * expected +
+                                 double(render::kTemporalSurfaceConstant);
         if (std::abs(distance_to_prev_eye(j) - expected) > tolerance ||
             glm::dot(pr.normal[j], cr.normal[i]) < kSameNormal)
           continue;
@@ -383,8 +379,7 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
         }
         if (k > 0)
           count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed,
-                        &out[li].changed_per_pixel, &out[li].edge_weight,
-                        &out[li].changed_weight);
+                        &out[li].changed_per_pixel, &out[li].edge_weight, &out[li].changed_weight);
         if (!options.truth) continue;
         if (!tracer || tracer->origin() != receivers.origin)
           tracer = std::make_unique<Tracer>(s, receivers.origin);
@@ -398,7 +393,11 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
           if (!f.reached[i]) reached.valid[i] = 0;
         truth_options.progress_label =
             "truth " + lights[li].name() + " " + path.name + " " + std::to_string(k);
-        t.visibility = tracer->trace(reached, area_light(s, lights[li]), truth_options).value;
+        t.visibility = options.cache_dir
+                           ? trace_cached(*tracer, reached, area_light(s, lights[li]),
+                                          truth_options, *options.cache_dir)
+                                 .value
+                           : tracer->trace(reached, area_light(s, lights[li]), truth_options).value;
         if (k == 0) continue;
         Flicker& o = out[li];
         o.has_truth = true;

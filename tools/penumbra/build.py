@@ -33,6 +33,9 @@ def run(cmd, env=None):
 
 
 def git_commit():
+    """$PENUMBRA_COMMIT (a copy of the tree without .git, on another machine), else git's."""
+    if os.environ.get("PENUMBRA_COMMIT"):
+        return os.environ["PENUMBRA_COMMIT"]
     try:
         return subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"],
                               capture_output=True, text=True, check=True).stdout.strip()

@@ -1,8 +1,8 @@
-"""One configuration of a scene, measured: penumbra-view's GPU time per pass (Vulkan timestamp
-queries, the median over frames) and penumbra-reference's metrics against the ray-traced truth:
+"""One configuration of a scene, measured by penumbra-reference: the GPU time per pass (Vulkan
+timestamp queries, the median over frames, as penumbra-view renders them) and the metrics against
+the ray-traced truth:
 the still frame, and along a camera path with the temporal history running (the error along the
 path, the flicker the truth does not have), acne, leaks and the contact gap per light."""
-import csv
 import json
 import math
 import os
@@ -31,23 +31,17 @@ def setargs(sets):
 def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
             path_frames=8):
     """Returns a dict: the objectives (OBJECTIVES), still_error, per-light details, the
-    device and the passes' ms."""
+    device and the passes' ms. One penumbra-reference run: the still frame, the path, then
+    `frames` frames timed with a renderer as penumbra-view builds it."""
     os.makedirs(work, exist_ok=True)
     size_arg = ["--size", size] if size else []
-    vout = os.path.join(work, "view")
-    run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view", "lit",
-         "--out", vout] + size_arg + setargs(sets))
-    passes, device = {}, ""
-    with open(os.path.join(vout, "timings.csv")) as f:
-        for row in csv.DictReader(f):
-            passes[row["pass"]] = float(row["median_ms"])
-            device = row["device"]
     rout = os.path.join(work, "reference")
     run([tools.reference, "--scene", scene, "--out", rout, "--flicker", path, "--flicker-frames",
-         str(path_frames), "--flicker-truth"] + size_arg + setargs(sets))
+         str(path_frames), "--flicker-truth", "--timing-frames", str(frames)] + size_arg +
+        setargs(sets))
     with open(os.path.join(rout, "metrics.json")) as f:
         m = json.load(f)
-    return score(m, passes, device, path)
+    return score(m, m["timings"]["passes"], m["device"], path)
 
 
 def score(m, passes, device, path):

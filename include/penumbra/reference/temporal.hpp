@@ -15,9 +15,10 @@
 // (0.02, 0.98) (the penumbrae). Flicker is the fraction of them whose visibility lies outside
 // the earlier range by more than `threshold` (8/255 by default).
 
+#include <filesystem>
+#include <optional>
 #include <penumbra/reference/reference.hpp>
 #include <penumbra/render/renderer.hpp>
-#include <optional>
 #include <span>
 #include <string>
 #include <vector>
@@ -43,7 +44,7 @@ std::vector<CameraPath> standard_paths();
 CameraPath find_path(const std::string& name);
 
 struct FlickerOptions {
-  uint32_t frames = 16;           // rendered along the path (>= 2): frames - 1 pairs
+  uint32_t frames = 16;             // rendered along the path (>= 2): frames - 1 pairs
   float threshold = 8.0f / 255.0f;  // a change above this is flicker
   // When set, the reference is traced at every frame's receivers as well (with these options;
   // shared_pattern is forced on, so the truth has no frame-to-frame Monte Carlo noise) and
@@ -52,6 +53,10 @@ struct FlickerOptions {
   // the shadows themselves move (a turning sun): Flicker::truth_* counts that, and
   // Flicker::excess_* the renderer's flicker where the truth held still.
   std::optional<TraceOptions> truth;
+  // Where the truth of each frame is cached (trace_cached): it depends on the scene, the camera
+  // path and the frame's receivers, not on the shadow settings, so a sweep along the same path
+  // traces it once. nullopt: traced every time.
+  std::optional<std::filesystem::path> cache_dir;
 };
 
 struct Flicker {
@@ -110,8 +115,8 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
 
 // One pair of frames: the counts for `current` against `previous` (exposed for tests).
 struct FrameSample {
-  Receivers receivers;          // from the frame's G-buffer
-  render::FrameCamera camera;   // the matrices the GPU used
+  Receivers receivers;            // from the frame's G-buffer
+  render::FrameCamera camera;     // the matrices the GPU used
   std::vector<float> visibility;  // the light's, per pixel
   std::vector<uint8_t> reached;   // 1 where the light reaches the receiver
   std::vector<float> weight;      // n·l to the light per pixel (0 facing away); empty: all 1
@@ -119,9 +124,8 @@ struct FrameSample {
 // per_pixel (width x height of `current`), when given, counts the flickering pixels.
 // edge_weight and changed_weight, when given, add up current.weight over the same pixels.
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
-                   size_t& edge_pixels, size_t& changed,
-                   std::vector<uint32_t>* per_pixel = nullptr, double* edge_weight = nullptr,
-                   double* changed_weight = nullptr);
+                   size_t& edge_pixels, size_t& changed, std::vector<uint32_t>* per_pixel = nullptr,
+                   double* edge_weight = nullptr, double* changed_weight = nullptr);
 
 // Per pixel of `current`: 1 where it reprojects onto the same surface in `previous` and its
 // visibility lies outside the earlier range by more than `threshold`, whether or not it is a
@@ -131,8 +135,8 @@ std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSamp
 // Flicker::excess_*: adds the renderer's changed edge pixels where `excused` (the truth's
 // changed_pixels) is 0 at the pixel and its 8 neighbours (aliasing of detail finer than a pixel
 // picks neighbouring pixels at random).
-void count_excess_flicker(const FrameSample& previous, const FrameSample& current,
-                          float threshold, std::span<const uint8_t> excused, Flicker& flicker);
+void count_excess_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
+                          std::span<const uint8_t> excused, Flicker& flicker);
 
 // The shadow-temporal pass (shadows.temporal, shaders/render/shadow_temporal.comp) on the CPU,
 // in double, for tests: `current`'s visibility accumulated onto `previous`'s (the accumulated
