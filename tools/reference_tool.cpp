@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -63,7 +64,8 @@ void usage(FILE* f) {
       "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
       "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
       "  --timing-frames  after measuring, render N frames with a renderer as penumbra-view\n"
-      "               builds it (no visibility output) and write each pass's median GPU ms\n"
+      "               builds it (no visibility output), after a warm-up of 0.3 s, and write\n"
+      "               each pass's median GPU ms\n"
       "               (Vulkan timestamp queries) into metrics.json's \"timings\"\n"
       "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
       "               rays; metrics.json's acne, leak and contact_gap_* fields, modes.png)\n"
@@ -301,15 +303,24 @@ int run(int argc, char** argv) {
     header << "}, \"flicker_frames\": " << o.flicker_options.frames;
   }
   // GPU time per pass, as penumbra-view measures it (its renderer has no visibility output, which
-  // costs the resolves a write per light): the median over the frames, the first included.
+  // costs the resolves a write per light): the median over the frames after a warm-up.
   if (o.timing_frames > 0) {
     penumbra::render::RendererOptions plain = ro;
     plain.visibility_output = false;
     penumbra::render::Renderer timed(ctx, scene, plain);
+    // Warm-up first: after seconds of tracing on the CPU the GPU has dropped to its idle clock
+    // (345 of 1980 MHz on an H200), and frames timed at once ran 5-10x slower than penumbra-view
+    // measures them. At least 3 frames and 0.3 s of rendering.
+    const auto warm_start = std::chrono::steady_clock::now();
+    uint32_t warm = 0;
+    while (warm < 3 ||
+           (std::chrono::steady_clock::now() - warm_start < std::chrono::milliseconds(300) &&
+            warm < 1000))
+      timed.render(warm++);
     std::map<std::string, std::vector<double>> samples;
     std::vector<std::string> order;
     for (uint32_t f = 0; f < o.timing_frames; ++f) {
-      timed.render(f);
+      timed.render(warm + f);
       for (const auto& t : timed.timings()) {
         if (!samples.count(t.name)) order.push_back(t.name);
         samples[t.name].push_back(t.gpu_ms);
