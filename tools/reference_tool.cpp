@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <map>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/json.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/validation.hpp>
@@ -183,13 +184,7 @@ Options parse(int argc, char** argv) {
 }
 
 std::string json_string(const std::string& s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
+  return penumbra::json::string(s);
 }
 
 int run(int argc, char** argv) {

@@ -23,6 +23,7 @@
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
+#include <penumbra/core/json.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/context.hpp>
@@ -98,11 +99,7 @@ Options parse(int argc, char** argv) {
 // Least squares y = a + b x.
 // A finite double, or null (JSON has no NaN).
 std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";
-  std::ostringstream o;
-  o.precision(9);
-  o << v;
-  return o.str();
+  return penumbra::json::number(v, 9);
 }
 
 void check_validation(gpu::Context& ctx) {

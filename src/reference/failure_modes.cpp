@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/json.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/reference/failure_modes.hpp>
 #include <thread>
@@ -18,13 +19,6 @@ void check_size(size_t got, size_t want, const char* what) {
   if (got != want)
     throw Error(std::string("failure modes: ") + what + " has " + std::to_string(got) +
                 " values, expected " + std::to_string(want));
-}
-
-std::string number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
 }
 
 // Any unit vector across unit w.
@@ -220,12 +214,14 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
 }
 
 std::string FailureModes::to_json() const {
-  return "\"acne\": " + number(acne) + ", \"acne_receivers\": " + std::to_string(acne_receivers) +
+  return "\"acne\": " + json::number(acne) +
+         ", \"acne_receivers\": " + std::to_string(acne_receivers) +
          ", \"clear_receivers\": " + std::to_string(clear_receivers) +
-         ", \"leak\": " + number(leak) + ", \"leak_receivers\": " + std::to_string(leak_receivers) +
-         ", \"contact_gap_texels\": " + number(contact_gap_texels) +
-         ", \"contact_gap_world\": " + number(contact_gap_world) +
-         ", \"contact_gap_max_texels\": " + number(contact_gap_max_texels) +
+         ", \"leak\": " + json::number(leak) +
+         ", \"leak_receivers\": " + std::to_string(leak_receivers) +
+         ", \"contact_gap_texels\": " + json::number(contact_gap_texels) +
+         ", \"contact_gap_world\": " + json::number(contact_gap_world) +
+         ", \"contact_gap_max_texels\": " + json::number(contact_gap_max_texels) +
          ", \"contact_receivers\": " + std::to_string(contact_receivers) +
          ", \"gap_receivers\": " + std::to_string(gap_receivers);
 }

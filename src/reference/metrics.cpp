@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <limits>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/json.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <sstream>
 
@@ -17,10 +18,7 @@ void check_size(size_t got, size_t want, const char* what) {
 }
 
 std::string number(double v) {
-  if (!std::isfinite(v)) return "null";
-  char b[32];
-  std::snprintf(b, sizeof b, "%.6g", v);
-  return b;
+  return json::number(v);
 }
 
 uint8_t grey_of(std::span<const uint8_t> rgba, size_t i) {
@@ -30,9 +28,8 @@ uint8_t grey_of(std::span<const uint8_t> rgba, size_t i) {
 
 }  // namespace
 
-std::vector<ReceiverClass> classify_receivers(const Receivers& receivers,
-                                              const scene::Scene& scene, const LightRef& light,
-                                              std::vector<float>* n_dot_l) {
+std::vector<ReceiverClass> classify_receivers(const Receivers& receivers, const scene::Scene& scene,
+                                              const LightRef& light, std::vector<float>* n_dot_l) {
   const AreaLight a = area_light(scene, light);
   std::vector<ReceiverClass> out(receivers.size(), ReceiverClass::none);
   if (n_dot_l) n_dot_l->assign(receivers.size(), 0.0f);
@@ -138,9 +135,8 @@ std::string Metrics::to_json() const {
   std::ostringstream s;
   s << "{\"light\": \"" << light << "\", \"hard\": " << (hard ? "true" : "false")
     << ", \"receivers\": " << receivers << ", \"facing_away\": " << facing_away
-    << ", \"non_finite\": " << non_finite
-    << ", \"mean_abs\": " << number(mean_abs) << ", \"mean_abs_lit\": " << number(mean_abs_lit)
-    << ", \"rmse\": " << number(rmse)
+    << ", \"non_finite\": " << non_finite << ", \"mean_abs\": " << number(mean_abs)
+    << ", \"mean_abs_lit\": " << number(mean_abs_lit) << ", \"rmse\": " << number(rmse)
     << ", \"p99_abs\": " << number(p99_abs) << ", \"false_light\": " << number(false_light)
     << ", \"false_shadow\": " << number(false_shadow)
     << ", \"false_light_lit\": " << number(false_light_lit)
@@ -159,8 +155,7 @@ std::string Metrics::to_line() const {
                 "%s: receivers %llu  mean|dV| %.4f (n.l-weighted %.4f)  rmse %.4f  p99 %.3f  "
                 "false-light %.2f%%  false-shadow %.2f%%%s",
                 light.c_str(), static_cast<unsigned long long>(receivers), mean_abs, mean_abs_lit,
-                rmse, p99_abs,
-                100.0 * false_light, 100.0 * false_shadow,
+                rmse, p99_abs, 100.0 * false_light, 100.0 * false_shadow,
                 hard ? ("  misclassified " + number(100.0 * misclassified) + "%").c_str() : "");
   return b;
 }

@@ -2,6 +2,7 @@
 // keys, types, ranges and a scene's values from it: penumbra-view --list-params).
 #include <cmath>
 #include <cstdio>
+#include <penumbra/core/json.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
@@ -9,21 +10,12 @@
 namespace penumbra::scene {
 namespace {
 
-std::string json_string(std::string_view s) {
-  std::string out = "\"";
-  for (char c : s) {
-    if (c == '"' || c == '\\') out += '\\';
-    if (static_cast<unsigned char>(c) < 0x20) continue;
-    out += c;
-  }
-  return out + "\"";
-}
-
+// An open-ended bound (infinite) is null.
 std::string json_number(double v) {
-  if (!std::isfinite(v)) return "null";  // an open-ended bound
-  char b[40];
-  std::snprintf(b, sizeof b, "%.17g", v);
-  return b;
+  return json::number(v, 17);
+}
+std::string json_string(std::string_view s) {
+  return json::string(s);
 }
 
 const char* type_name(ParamType t) {
