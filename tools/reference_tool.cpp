@@ -65,7 +65,8 @@ void usage(FILE* f) {
       "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
       "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
       "  --timing-frames  after measuring, render N frames with a renderer as penumbra-view\n"
-      "               builds it (no visibility output), after a warm-up of 0.3 s, and write\n"
+      "               builds it (no visibility output), after a warm-up (0.3-3 s, until the\n"
+      "               frame time settles), and write\n"
       "               each pass's median GPU ms\n"
       "               (Vulkan timestamp queries) into metrics.json's \"timings\"\n"
       "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
@@ -305,13 +306,24 @@ int run(int argc, char** argv) {
     penumbra::render::Renderer timed(ctx, scene, plain);
     // Warm-up first: after seconds of tracing on the CPU the GPU has dropped to its idle clock
     // (345 of 1980 MHz on an H200), and frames timed at once ran 5-10x slower than penumbra-view
-    // measures them. At least 3 frames and 0.3 s of rendering.
+    // measures them; a fixed 0.3 s warm-up still left one point in 19 at a third of the clock.
+    // So: at least 3 frames and 0.3 s, then until a frame's GPU time is within 5% of the one
+    // before it (the clock has settled), at most 3 s. A CPU driver (lavapipe) has no such clock
+    // and its frame times never settle that closely: one frame.
     const auto warm_start = std::chrono::steady_clock::now();
+    const auto since = [&] { return std::chrono::steady_clock::now() - warm_start; };
     uint32_t warm = 0;
-    while (warm < 3 ||
-           (std::chrono::steady_clock::now() - warm_start < std::chrono::milliseconds(300) &&
-            warm < 1000))
+    double last_total = -1.0;
+    for (;;) {
       timed.render(warm++);
+      double total = 0.0;
+      for (const auto& t : timed.timings()) total += t.gpu_ms;
+      const bool settled = last_total > 0.0 && std::abs(total - last_total) <= 0.05 * last_total;
+      last_total = total;
+      if (ctx.info().is_cpu) break;
+      if (warm >= 3 && since() >= std::chrono::milliseconds(300) && settled) break;
+      if (since() >= std::chrono::seconds(3) || warm >= 10000) break;
+    }
     std::map<std::string, std::vector<double>> samples;
     std::vector<std::string> order;
     for (uint32_t f = 0; f < o.timing_frames; ++f) {
