@@ -223,8 +223,11 @@ int run(int argc, char** argv) {
         m.receivers.rejected);
 
   std::ostringstream header;
-  header << "\"scene\": " << json_string(scene.name)
-         << ", \"scene_file\": " << json_string(scene_file.string())
+  header << "\"scene\": "
+         << json_string(scene.name)
+         // As given (a shipped scene's name, or the path on the command line), not the
+         // resolved absolute path: checked-in results name no machine's folders.
+         << ", \"scene_file\": " << json_string(o.scene)
          << ", \"device\": " << json_string(ctx.info().name)
          << ", \"driver\": " << json_string(ctx.info().driver_name + " " + ctx.info().driver_info)
          << ", \"frame\": " << o.frame << ", \"samples\": " << o.measure.trace.samples
