@@ -24,6 +24,16 @@ if cmake --install "$PENUMBRA_BUILD" --prefix "$example/prefix" > "$example/inst
    cmake --build "$example/build" > "$example/build.log"; then
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
     ctest --test-dir "$example/build" --output-on-failure || status=1
+  # And run directly, as a user runs one test binary: from another directory, without CTest's
+  # PENUMBRA_SHADER_DIR / PENUMBRA_SHADER_PATH, the package's GLSL and the project's SHADER_DIRS
+  # are still found (compiled in from where find_package found the prefix).
+  if ! (cd / && env -u PENUMBRA_SHADER_DIR -u PENUMBRA_SHADER_PATH PENUMBRA_VALIDATION=1 \
+          ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} "$example/build/tutorial_tests" \
+          > "$example/direct.log" 2>&1); then
+    cat "$example/direct.log"
+    echo "the example's test binary fails when run outside CTest" >&2
+    status=1
+  fi
 else
   cat "$example"/*.log
   echo "the example project did not build against the installed package" >&2

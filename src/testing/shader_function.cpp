@@ -1,8 +1,8 @@
 #include <algorithm>
 #include <cmath>
-#include <glm/gtc/packing.hpp>
 #include <cstdlib>
 #include <fstream>
+#include <glm/gtc/packing.hpp>
 #include <map>
 #include <mutex>
 #include <penumbra/core/error.hpp>
@@ -42,9 +42,21 @@ const char* glsl_name(ResourceKind kind) {
   return "?";
 }
 
+static std::string& registered_shader_path() {
+  static std::string path;
+  return path;
+}
+
+bool set_default_shader_path(const char* path) {
+  registered_shader_path() = path ? path : "";
+  return true;
+}
+
 std::vector<fs::path> default_shader_dirs() {
   std::vector<fs::path> dirs;
-  if (const char* env = std::getenv("PENUMBRA_SHADER_PATH")) {
+  const char* env = std::getenv("PENUMBRA_SHADER_PATH");
+  if (!env && !registered_shader_path().empty()) env = registered_shader_path().c_str();
+  if (env) {
     std::stringstream ss(env);
     std::string item;
     while (std::getline(ss, item, ':'))
@@ -241,8 +253,8 @@ std::string describe_texture(const Texture& t, const ExternalSampler& external) 
   if (t.storage) return kind + " storage image";
   const bool own = external.handle == VK_NULL_HANDLE;
   const bool compare = own ? t.sampler.desc().compare : external.compare;
-  return kind + (t.depth ? " depth" : " float") + " texture with " + (own ? "a " : "the caller's ") +
-         (compare ? "compare" : "non-compare") + " sampler";
+  return kind + (t.depth ? " depth" : " float") + " texture with " +
+         (own ? "a " : "the caller's ") + (compare ? "compare" : "non-compare") + " sampler";
 }
 
 // SPIR-V: does the module declare this capability (OpCapability, opcode 17)?
@@ -307,11 +319,11 @@ std::string printf_text(const std::string& message) {
 // The overloads the checked texel fetches cover: every GLSL type texelFetch takes, so that a
 // tested file's other code (globals of other types included) still compiles under the macros.
 struct FetchOverload {
-  const char* type;    // without the i/u prefix
-  const char* coord;   // coordinate type
-  int dims;            // components of the coordinate (the last is the layer for arrays)
-  bool lod;            // texelFetch takes a level (else: none, or a sample index for MS)
-  bool ms;             // multisampled: the third argument is the sample
+  const char* type;   // without the i/u prefix
+  const char* coord;  // coordinate type
+  int dims;           // components of the coordinate (the last is the layer for arrays)
+  bool lod;           // texelFetch takes a level (else: none, or a sample index for MS)
+  bool ms;            // multisampled: the third argument is the sample
 };
 constexpr FetchOverload kFetchOverloads[] = {
     {"sampler1D", "int", 1, true, false},        {"sampler2D", "ivec2", 2, true, false},
@@ -322,8 +334,8 @@ constexpr FetchOverload kFetchOverloads[] = {
 constexpr const char* kBoundsOps[] = {"texelFetch", "texelFetchOffset", "imageLoad", "imageStore"};
 
 // std430 layout of PenumbraBounds: 11 scalars, 4 bytes each, in this order.
-constexpr const char* kBoundsMembers[] = {"count", "first_case", "op",     "type", "level", "levels",
-                                          "x",     "y",          "z",      "w",    "h",     "d"};
+constexpr const char* kBoundsMembers[] = {"count", "first_case", "op", "type", "level", "levels",
+                                          "x",     "y",          "z",  "w",    "h",     "d"};
 constexpr uint32_t kBoundsBytes = sizeof(kBoundsMembers) / sizeof(kBoundsMembers[0]) * 4;
 
 std::string ivec3_of(const char* coord, const std::string& v) {
@@ -338,7 +350,8 @@ std::string ivec3_of(const char* coord, const std::string& v) {
 std::string bounds_prelude(uint32_t binding, bool images, std::vector<std::string>& types) {
   std::ostringstream g;
   g << "// ---- Penumbra bounds checks (FunctionOptions::check_bounds) ----\n";
-  g << "layout(std430, set = 0, binding = " << binding << ") buffer PenumbraBounds {\n  uint count;\n"
+  g << "layout(std430, set = 0, binding = " << binding
+    << ") buffer PenumbraBounds {\n  uint count;\n"
     << "  uint first_case;\n  uint op;\n  uint type;\n  int level;\n  int levels;\n"
     << "  int x;\n  int y;\n  int z;\n  int w;\n  int h;\n  int d;\n} penumbra_bounds;\n";
   g << "uint penumbra_case = 0u;\n";
@@ -360,8 +373,7 @@ std::string bounds_prelude(uint32_t binding, bool images, std::vector<std::strin
       const uint32_t id = uint32_t(types.size());
       types.push_back(type);
       const std::string p3 = ivec3_of(o.coord, "p");
-      const std::string size3 =
-          ivec3_of(o.coord, o.lod ? "textureSize(s, lod)" : "textureSize(s)");
+      const std::string size3 = ivec3_of(o.coord, o.lod ? "textureSize(s, lod)" : "textureSize(s)");
       for (int op = 0; op < 2; ++op) {
         if (op == 1 && (!o.lod || std::string(o.type) == "samplerBuffer")) continue;
         g << vec4 << " penumbra_checked_" << kBoundsOps[op] << "(" << type << " s, " << o.coord
@@ -376,9 +388,10 @@ std::string bounds_prelude(uint32_t binding, bool images, std::vector<std::strin
         if (op == 1) g << ", " << offset_type << " offset";
         g << ") {\n";
         if (op == 1) {
-          g << "  p += " << (std::string(offset_type) == o.coord ? "offset"
-                             : std::string(offset_type) == "int" ? "ivec2(offset, 0)"
-                                                                 : "ivec3(offset, 0)")
+          g << "  p += "
+            << (std::string(offset_type) == o.coord ? "offset"
+                : std::string(offset_type) == "int" ? "ivec2(offset, 0)"
+                                                    : "ivec3(offset, 0)")
             << ";\n";
         }
         if (o.lod) {
@@ -655,7 +668,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
               e->output_stride_);
   if (options.check_bounds) {
     const auto* b = refl.find_binding("PenumbraBounds");
-    if (b == nullptr || !b->block) throw Error("wrapper reflection: block PenumbraBounds not found");
+    if (b == nullptr || !b->block)
+      throw Error("wrapper reflection: block PenumbraBounds not found");
     for (uint32_t k = 0; k < kBoundsBytes / 4; ++k) {
       const auto& members = b->block->members;
       auto it = std::find_if(members.begin(), members.end(), [&](const shader::BlockMember& m) {
@@ -675,7 +689,8 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
       !ctx.info().storage_read_without_format) {
     throw Error("ShaderFunction " + e->signature_ + " from " + file.string() +
                 " reads a storage image parameter (imageLoad of a format-less image2D): that needs "
-                "shaderStorageImageReadWithoutFormat, which device " + ctx.info().name +
+                "shaderStorageImageReadWithoutFormat, which device " +
+                ctx.info().name +
                 " does not have. A function that only writes its image runs everywhere; to test "
                 "reads here, pass the image as a sampler2D and texelFetch it");
   }
@@ -759,12 +774,13 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
     if (b.texture->storage) {
       w.storage_image(binding, b.texture->image.view());
     } else {
-      w.combined_image(binding, b.texture->image.view(),
-                       b.sampler.handle != VK_NULL_HANDLE ? b.sampler.handle
-                                                          : b.texture->sampler.handle());
+      w.combined_image(
+          binding, b.texture->image.view(),
+          b.sampler.handle != VK_NULL_HANDLE ? b.sampler.handle : b.texture->sampler.handle());
     }
   }
-  if (check_bounds_) w.buffer(static_cast<uint32_t>(2 + resource_kinds_.size()), impl_->bounds.handle());
+  if (check_bounds_)
+    w.buffer(static_cast<uint32_t>(2 + resource_kinds_.size()), impl_->bounds.handle());
   w.update(ctx, set);
 
   const uint64_t per_dispatch =
@@ -830,8 +846,10 @@ std::string FunctionEngine::describe_out_of_bounds(const std::vector<int32_t>& v
   const std::string type_name = type < bounds_types_.size() ? bounds_types_[type] : "?";
   const bool ms = type_name.find("MS") != std::string::npos;
   const bool arrayed = type_name.find("Array") != std::string::npos;
-  const int dims = type_name.find("1D") != std::string::npos || type_name.find("Buffer") !=
-                   std::string::npos ? 1 : type_name.find("3D") != std::string::npos ? 3 : 2;
+  const int dims =
+      type_name.find("1D") != std::string::npos || type_name.find("Buffer") != std::string::npos ? 1
+      : type_name.find("3D") != std::string::npos                                                ? 3
+                                                  : 2;
   const int comps = dims + (arrayed ? 1 : 0);
   auto vec = [&](int a, int b, int c) {
     const int xs[3] = {a, b, c};
@@ -854,9 +872,9 @@ std::string FunctionEngine::describe_out_of_bounds(const std::vector<int32_t>& v
   } else if (op < 2 && type_name.find("Buffer") == std::string::npos) {
     m << ", level " << v[4] << " of " << v[5];
   }
-  m << "; the " << (op < 2 && !ms && type_name.find("Buffer") == std::string::npos
-                        ? "level's size is "
-                        : "size is ")
+  m << "; the "
+    << (op < 2 && !ms && type_name.find("Buffer") == std::string::npos ? "level's size is "
+                                                                       : "size is ")
     << (v[9] == 0 && v[10] == 0 ? std::string("(no such level)") : size)
     << (arrayed ? " (the last is layers)" : "");
   return m.str();
@@ -972,13 +990,12 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
   return t;
 }
 
-
 std::shared_ptr<Texture> make_storage_image(const StorageImageDesc& desc,
                                             std::span<const float> texels) {
   auto& ctx = shared_context();
   gpu::ImageDesc d;
-  d.kind = (desc.array || desc.layers > 1) ? gpu::ImageKind::image_2d_array
-                                           : gpu::ImageKind::image_2d;
+  d.kind =
+      (desc.array || desc.layers > 1) ? gpu::ImageKind::image_2d_array : gpu::ImageKind::image_2d;
   d.format = float_format(desc.channels, desc.half, "StorageImageDesc");
   if (desc.width == 0 || desc.height == 0 || desc.layers == 0) {
     throw Error("StorageImageDesc: width, height and layers must be > 0 (got " +

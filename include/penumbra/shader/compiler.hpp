@@ -141,10 +141,18 @@ class Compiler {
   Stats stats_;
 };
 
-// The shader tree (the stage files and the penumbra/ library) of the source tree Penumbra was
-// built from, or $PENUMBRA_SHADER_DIR when that is set and not empty: the one definition every
-// layer's default comes from.
+// The shader tree (the stage files and the penumbra/ library): $PENUMBRA_SHADER_DIR when that
+// is set and not empty; else, in a project built against the installed package, the package's
+// copy where its find_package(Penumbra) found it (set_package_shader_dir); else the source tree
+// Penumbra was built from (or, installed, CMAKE_INSTALL_FULL_DATADIR/penumbra/shaders of its
+// build). The one definition every layer's default comes from.
 std::filesystem::path default_shader_dir();
+
+// Called before main() by a source that PenumbraConfig.cmake generates into every target linking
+// the installed package, with the package's shader directory as that configure found it: a
+// prefix installed anywhere (cmake --install --prefix DIR) works without PENUMBRA_SHADER_DIR,
+// also when the test binary runs outside CTest. Returns true (for a static initializer).
+bool set_package_shader_dir(const char* dir);
 
 // The on-disk SPIR-V cache the renderer, the program registry and the test harness use:
 // $PENUMBRA_SHADER_CACHE_DIR when set ("off" or empty: none), else none. Penumbra's own CTest

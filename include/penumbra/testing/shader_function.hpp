@@ -55,7 +55,7 @@ enum class ResourceKind {
   sampler_cube_array_shadow,
   sampler_cube_array,
   sampler_cube,
-  image2d,       // a storage image (make_storage_image), read and written in place
+  image2d,  // a storage image (make_storage_image), read and written in place
   image2d_array
 };
 const char* glsl_name(ResourceKind kind);
@@ -195,6 +195,12 @@ SpecConstant spec_constant(uint32_t id, T value) {
     std::memcpy(&bits, &value, 4);
   return {id, bits};
 }
+
+// The directories searched where PENUMBRA_SHADER_PATH is not set (colon-separated): called before
+// main() by a source penumbra_add_shader_tests generates into each test executable from its
+// SHADER_DIRS, so the executable finds its GLSL when run directly, outside CTest, too. Returns
+// true (for a static initializer).
+bool set_default_shader_path(const char* path);
 
 struct FunctionOptions {
   // Searched first, in order, for the tested file and its includes; then PENUMBRA_SHADER_PATH (a
