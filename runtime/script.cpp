@@ -208,7 +208,16 @@ bool Script::execute(const std::vector<std::string>& a) {
   } else if (cmd == "reload") {
     if (a.size() < 2) throw Error("reload: expected FILE...");
     std::vector<fs::path> files;
-    for (size_t i = 1; i < a.size(); ++i) files.push_back(shader_file(a[i]));
+    for (size_t i = 1; i < a.size(); ++i) {
+      files.push_back(shader_file(a[i]));
+      // A file that is gone reloads only where a pipeline reads it (a deleted include keeps the
+      // last good pipelines until it is back); anything else names nothing to reload.
+      std::error_code ec;
+      if (!fs::exists(files.back(), ec) &&
+          session().renderer().pipelines_reading(files.back()).empty())
+        throw Error("reload " + a[i] + ": " + files.back().string() +
+                    " does not exist, and no pipeline reads it");
+    }
     session().reload(files);
   } else if (cmd == "wait_reload") {
     arity(a, 0, 1, "[TIMEOUT_MS]");

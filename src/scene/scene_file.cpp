@@ -78,9 +78,18 @@ void read_camera(const Reader& r, Scene& scene) {
   read_table(r, "camera", scene, false);
   const Camera& camera = scene.camera;
   if (!(camera.far > camera.near)) {
-    r.fail_at(r.get(r.has("far") ? "far" : "near"),
-              r.name("far") + " = " + format_number(camera.far) +
-                  " must be greater than near = " + format_number(camera.near));
+    // At near's line when the file gives near (far = 1000 is not wrong because near = 1e38 is),
+    // naming far's line too when the file gives it; at far's line when only far is given.
+    if (r.has("near")) {
+      const std::string far = r.has("far")
+                                  ? " (line " + std::to_string(r.line_of(r.get("far"))) + ")"
+                                  : " (the default)";
+      r.fail_at(r.get("near"), r.name("near") + " = " + format_number(camera.near) +
+                                   " must be less than far = " + format_number(camera.far) + far);
+    }
+    r.fail_at(r.get("far"), r.name("far") + " = " + format_number(camera.far) +
+                                " must be greater than near = " + format_number(camera.near) +
+                                " (the default)");
   }
   const glm::vec3 view = camera.target - camera.position;
   if (!(glm::length(view) > 1e-6f)) {
@@ -198,11 +207,10 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   // The name is a directory under out/: a plain name, never a path.
   {
     const std::string& n = scene.name;
-    const bool plain = !n.empty() && n.size() <= 64 && n[0] != '.' &&
-                       std::all_of(n.begin(), n.end(), [](char c) {
-                         return std::isalnum(static_cast<unsigned char>(c)) || c == '_' ||
-                                c == '-' || c == '.';
-                       });
+    const bool plain =
+        !n.empty() && n.size() <= 64 && n[0] != '.' && std::all_of(n.begin(), n.end(), [](char c) {
+          return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-' || c == '.';
+        });
     if (!plain) {
       const std::string shown = n.size() > 80 ? n.substr(0, 80) + "..." : n;
       const std::string text = "name = '" + shown +
@@ -223,9 +231,10 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   for (std::size_t i = 0; i < spots.size(); ++i) {
     if (i == kMaxSpotLights) {
       const Reader extra(ctx, *spots[i], indexed_label("spot", i));
-      extra.fail_at(nullptr, extra.label() + ": a scene has at most " + std::to_string(kMaxSpotLights) +
-                                " spot lights (the renderer shades that many); this one would "
-                                "be ignored");
+      extra.fail_at(nullptr, extra.label() + ": a scene has at most " +
+                                 std::to_string(kMaxSpotLights) +
+                                 " spot lights (the renderer shades that many); this one would "
+                                 "be ignored");
     }
     SpotLight spot;
     read_spot(Reader(ctx, *spots[i], indexed_label("spot", i)), spot);
@@ -235,9 +244,10 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (i == kMaxPointLights) {
       const Reader extra(ctx, *points[i], indexed_label("point", i));
-      extra.fail_at(nullptr, extra.label() + ": a scene has at most " + std::to_string(kMaxPointLights) +
-                                " point lights (the renderer shades that many); this one would "
-                                "be ignored");
+      extra.fail_at(nullptr, extra.label() + ": a scene has at most " +
+                                 std::to_string(kMaxPointLights) +
+                                 " point lights (the renderer shades that many); this one would "
+                                 "be ignored");
     }
     PointLight point;
     read_point(Reader(ctx, *points[i], indexed_label("point", i)), point);

@@ -117,6 +117,12 @@ TEST(ScriptEndToEnd, AnErrorNamesTheScriptLineAndFails) {
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(r.output, HasSubstr("bad.txt:2: unknown command 'rendr'"));
 
+  // A reload of a file that does not exist, and that no pipeline reads, is an error.
+  r = view("--size 160x90 --command \"reload /nonexistent.glsl\"");
+  EXPECT_NE(r.status, 0);
+  EXPECT_THAT(r.output, HasSubstr("--command 1: reload /nonexistent.glsl: /nonexistent.glsl does "
+                                  "not exist, and no pipeline reads it"));
+
   r = view("--size 160x90 --command \"set shadows.filter pcx\"");
   EXPECT_NE(r.status, 0);
   EXPECT_THAT(
@@ -246,14 +252,14 @@ TEST(ViewFlags, AnExistingOutputDirectoryIsReusedAndSaidSo) {
 TEST(ScriptEndToEnd, ARelativeShaderDirReloads) {
   TempTree tree(true);
   const fs::path script = tree.root() / "relative.txt";
-  testing::write_text(script,
-                      "scene default\nsize 160x90\nset shadows.resolution 512\nrender\n"
-                      "replace render/tonemap.comp \"frame.ambient.w;\" \"frame.ambient.w * 0.5;\"\n"
-                      "expect_reload_ok\nexpect_rebuilt tonemap\nquit\n");
-  const std::string cmd = "cd " + tree.root().string() + " && " + PENUMBRA_VIEW_EXE +
-                          " --headless --shader-dir " +
-                          fs::relative(tree.shaders(), tree.root()).string() + " --script " +
-                          script.string() + " 2>&1";
+  testing::write_text(
+      script,
+      "scene default\nsize 160x90\nset shadows.resolution 512\nrender\n"
+      "replace render/tonemap.comp \"frame.ambient.w;\" \"frame.ambient.w * 0.5;\"\n"
+      "expect_reload_ok\nexpect_rebuilt tonemap\nquit\n");
+  const std::string cmd =
+      "cd " + tree.root().string() + " && " + PENUMBRA_VIEW_EXE + " --headless --shader-dir " +
+      fs::relative(tree.shaders(), tree.root()).string() + " --script " + script.string() + " 2>&1";
   std::string output;
   FILE* p = popen(cmd.c_str(), "r");
   ASSERT_NE(p, nullptr);

@@ -306,11 +306,13 @@ TEST(SceneFile, AnalyticShadowsAreForUniformlyScaledCastingSpheres) {
                                           "true needs a uniform scale"));
   const std::string hidden =
       "[[object]]\nmesh = \"sphere\"\ncasts_shadows = false\nanalytic_shadow = true\n";
-  EXPECT_THAT(error_of(hidden), HasSubstr(at(hidden, "analytic_shadow") + "[[object]] #1 "
+  EXPECT_THAT(error_of(hidden), HasSubstr(at(hidden, "analytic_shadow") +
+                                          "[[object]] #1 "
                                           "analytic_shadow: analytic_shadow = true with "
                                           "casts_shadows = false"));
-  const std::string many = "[[scatter]]\nmesh = \"sphere\"\ncount = 300\nradius = 100\n"
-                           "analytic_shadow = true\n";
+  const std::string many =
+      "[[scatter]]\nmesh = \"sphere\"\ncount = 300\nradius = 100\n"
+      "analytic_shadow = true\n";
   EXPECT_THAT(error_of(many), HasSubstr(at(many, "analytic_shadow") +
                                         "[[scatter]] #1 analytic_shadow: the scene has 300 "
                                         "analytic spheres; at most 256 are supported"));
@@ -330,8 +332,8 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
                                              "values: hard, pcf, pcss, poisson, evsm2 (did you "
                                              "mean 'pcf'?)"));
   // A spot or point light's own evsm2 asks for its own moments, and only those.
-  const Scene spot_evsm = parse(
-      "[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox);
+  const Scene spot_evsm =
+      parse("[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox);
   EXPECT_EQ(spot_evsm.spots[0].filter, Filter::evsm2);
   EXPECT_TRUE(spot_evsm.requirements().spot_moments);
   EXPECT_FALSE(spot_evsm.requirements().point_moments);
@@ -342,8 +344,10 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
   EXPECT_FALSE(point_evsm.requirements().sun_moments);
   // Under the sun's evsm2 a light without a filter of its own keeps it unset (pcf is chosen
   // when the frame is packed), and the scene requires the moments only with a shadowed sun.
-  const Scene sun = parse("[sun]\ndirection = [0, -1, 0]\n[shadows]\nfilter = \"evsm2\"\n"
-                          "[[point]]\nposition = [1, 2, 0]\n" + kBox);
+  const Scene sun = parse(
+      "[sun]\ndirection = [0, -1, 0]\n[shadows]\nfilter = \"evsm2\"\n"
+      "[[point]]\nposition = [1, 2, 0]\n" +
+      kBox);
   EXPECT_FALSE(sun.points[0].filter.has_value());
   EXPECT_TRUE(sun.requirements().sun_moments);
   const Scene no_sun = parse("[shadows]\nfilter = \"evsm2\"\n" + kBox);
@@ -512,7 +516,7 @@ TEST(SceneFile, TextureMaskIsBilinearBetweenTexelCentresAndRepeats) {
   EXPECT_FLOAT_EQ(texture_mask(image, {0.5f, 0.5f}, {1, 1}), 0.5f);
   EXPECT_FLOAT_EQ(texture_mask(image, {0.0f, 0.5f}, {1, 1}), 0.5f);
   EXPECT_FLOAT_EQ(texture_mask(image, {0.125f, 0.5f}, {1, 1}), 0.25f);
-  EXPECT_FLOAT_EQ(texture_mask(image, {-0.875f, 0.3f}, {1, 1}), 0.25f);  // repeats
+  EXPECT_FLOAT_EQ(texture_mask(image, {-0.875f, 0.3f}, {1, 1}), 0.25f);        // repeats
   EXPECT_FLOAT_EQ(texture_mask(image, {0.125f / 4.0f, 0.5f}, {4, 1}), 0.25f);  // scaled
   EXPECT_FLOAT_EQ(texture_mask(image, {NAN, 0.5f}, {1, 1}), 1.0f);
   // A material: the alpha test cuts out below the cutoff.
@@ -742,9 +746,17 @@ TEST(SceneErrors, ValuesOutOfRange) {
   EXPECT_THAT(error_of(text), HasSubstr(at(text, "steps") + "[contact] steps = 100 is out of "
                                                             "range; must be in [0, 64]"));
   EXPECT_EQ(parse("[contact]\nsteps = 64\n" + kBox).contact.step_count, 64u);
+  // near and far out of order: at near's line, naming far's; a near beyond the default far
+  // (1e38) at near's line, not far's; a far under the default near at far's.
   text = "[camera]\nnear = 1\nfar = 0.5\n" + kBox;
-  EXPECT_THAT(error_of(text),
-              HasSubstr(at(text, "far") + "[camera] far = 0.5 must be greater than near = 1"));
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "near") +
+                                        "[camera] near = 1 must be less than far = 0.5 (line 3)"));
+  text = "[camera]\nnear = 1e38\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "near") + "[camera] near = 1e+38 must be less "
+                                                           "than far = 500 (the default)"));
+  text = "[camera]\nfar = 0.01\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "far") + "[camera] far = 0.01 must be greater "
+                                                          "than near = 0.1 (the default)"));
   text =
       "[[spot]]\nposition = [0, 1, 0]\ndirection = [0, -1, 0]\nouter_angle = 20\n"
       "inner_angle = 30\n" +
@@ -926,13 +938,13 @@ TEST(SceneFile, MoreLocalLightsThanTheRendererShadesIsAnErrorAtTheExtraOne) {
 // The scene's name is the output directory under out/: a path, an empty or a very long name is
 // refused at its line.
 TEST(SceneFile, ANameThatIsAPathIsRefused) {
-  for (const std::string& bad : std::vector<std::string>{"../../../x", "/tmp/abs", "a/b", "", ".hidden",
-                                std::string(5000, 'n')}) {
+  for (const std::string& bad : std::vector<std::string>{"../../../x", "/tmp/abs", "a/b", "",
+                                                         ".hidden", std::string(5000, 'n')}) {
     const std::string text = "name = \"" + bad + "\"\n" + kBox;
     const std::string e = error_of(text);
     EXPECT_THAT(e, HasSubstr("scenes/x.toml:1: ")) << bad;
-    EXPECT_THAT(e, ::testing::AnyOf(HasSubstr("must be a plain name"),
-                                    HasSubstr("must not be empty")))
+    EXPECT_THAT(e,
+                ::testing::AnyOf(HasSubstr("must be a plain name"), HasSubstr("must not be empty")))
         << bad;
     EXPECT_LT(e.size(), 400u) << "a long name is cut in the message";
   }
