@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <penumbra/core/file.hpp>
 #include <sstream>
 
 #include "toml_reader.hpp"
@@ -272,8 +273,8 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
 
 Scene load_scene(const std::filesystem::path& file) {
   std::error_code ec;
-  if (!fs::is_regular_file(file, ec)) {
-    throw Error("scene file '" + file.string() + "' not found" +
+  if (const std::string problem = file_problem(file); !problem.empty()) {
+    throw Error("scene file '" + printable(file.string()) + "' " + problem +
                 (file.is_relative() ? " (resolved to " + fs::absolute(file, ec).string() + ")"
                                     : std::string()));
   }

@@ -4,6 +4,7 @@
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
 #include <map>
+#include <penumbra/core/file.hpp>
 
 #include "toml_reader.hpp"
 
@@ -22,6 +23,21 @@ fs::path resolve(const Context& ctx, const std::string& path) {
   return (ec ? p : absolute).lexically_normal();
 }
 
+// A file-valued key's file, resolved against the scene's folder: an error at the key's line when
+// the path holds a NUL byte (the OS would cut it there and open another file) or names no
+// regular file (missing, a directory, a device), saying which.
+fs::path input_file(const Reader& r, std::string_view key, const std::string& what,
+                    const std::string& given) {
+  if (const size_t nul = given.find('\0'); nul != std::string::npos)
+    r.fail_key(key, what + " '" + printable(given) + "' contains a NUL byte (at " +
+                        std::to_string(nul) + "); a path cannot");
+  const fs::path file = resolve(r.context(), given);
+  if (const std::string problem = file_problem(file); !problem.empty())
+    r.fail_key(key, what + " '" + printable(given) + "' " + problem + " (resolved to " +
+                        printable(file.string()) + ")");
+  return file;
+}
+
 Material read_material(const Reader& r) {
   r.check_keys({"name", "albedo", "alpha", "mask", "mask_texture", "mask_scale", "alpha_cutoff"});
   Material m;
@@ -36,12 +52,7 @@ Material read_material(const Reader& r) {
     }
     mask = MaskPattern::texture;
     const std::string given = *r.opt_string("mask_texture");
-    m.mask_texture = resolve(r.context(), given);
-    std::error_code ec;
-    if (!fs::is_regular_file(m.mask_texture, ec)) {
-      r.fail_key("mask_texture", "texture file '" + given + "' not found (resolved to " +
-                                     m.mask_texture.string() + ")");
-    }
+    m.mask_texture = input_file(r, "mask_texture", "texture file", given);
     try {
       m.mask_image = std::make_shared<const MaskImage>(load_mask_image(m.mask_texture));
     } catch (const Error& e) {
@@ -78,10 +89,12 @@ std::vector<std::string_view> shape_keys(std::string_view kind, bool scatter) {
   if (kind == "box" || kind == "table") return {"size"};
   // A scatter's `radius` is where it places instances: its spheres and posts keep their default
   // radius and take their size from `scale`.
-  if (kind == "sphere") return scatter ? std::vector<std::string_view>{"segments", "rings"}
-                                       : std::vector<std::string_view>{"radius", "segments", "rings"};
-  if (kind == "post") return scatter ? std::vector<std::string_view>{"height", "segments"}
-                                     : std::vector<std::string_view>{"radius", "height", "segments"};
+  if (kind == "sphere")
+    return scatter ? std::vector<std::string_view>{"segments", "rings"}
+                   : std::vector<std::string_view>{"radius", "segments", "rings"};
+  if (kind == "post")
+    return scatter ? std::vector<std::string_view>{"height", "segments"}
+                   : std::vector<std::string_view>{"radius", "height", "segments"};
   if (kind == "chair") return {};
   // model: and file:
   if (scatter) return {"size"};
@@ -114,7 +127,7 @@ std::string hex_float(float v) {
 
 struct MeshUse {
   std::uint32_t mesh = 0;
-  glm::mat4 normalize{1.0f};  // applied before the object's own transform
+  glm::mat4 normalize{1.0f};   // applied before the object's own transform
   float sphere_radius = 0.0f;  // mesh = "sphere": its radius (about the object's origin)
 };
 
@@ -125,9 +138,10 @@ float analytic_sphere_radius(const Reader& r, const MeshUse& use, bool uniform_s
                              bool casts_shadows) {
   if (!r.boolean("analytic_shadow", false)) return 0.0f;
   if (!(use.sphere_radius > 0.0f)) {
-    r.fail_key("analytic_shadow", "analytic_shadow = true needs mesh = \"sphere\" (the closed form "
-                                  "is a sphere's), not mesh = \"" +
-                                      r.opt_string("mesh").value_or("") + "\"");
+    r.fail_key("analytic_shadow",
+               "analytic_shadow = true needs mesh = \"sphere\" (the closed form "
+               "is a sphere's), not mesh = \"" +
+                   r.opt_string("mesh").value_or("") + "\"");
   }
   if (!uniform_scale) {
     r.fail_key("analytic_shadow",
@@ -135,16 +149,18 @@ float analytic_sphere_radius(const Reader& r, const MeshUse& use, bool uniform_s
                "unevenly is an ellipsoid");
   }
   if (!casts_shadows) {
-    r.fail_key("analytic_shadow", "analytic_shadow = true with casts_shadows = false: an object "
-                                  "that casts no shadow has no shadow to compute");
+    r.fail_key("analytic_shadow",
+               "analytic_shadow = true with casts_shadows = false: an object "
+               "that casts no shadow has no shadow to compute");
   }
   return use.sphere_radius;
 }
 
 // Fails at `analytic_shadow` when the scene's analytic spheres exceed kMaxAnalyticSpheres.
 void check_analytic_count(const Reader& r, const Scene& scene) {
-  const auto count = std::count_if(scene.instances.begin(), scene.instances.end(),
-                                   [](const Instance& i) { return i.analytic_sphere_radius > 0.0f; });
+  const auto count =
+      std::count_if(scene.instances.begin(), scene.instances.end(),
+                    [](const Instance& i) { return i.analytic_sphere_radius > 0.0f; });
   if (std::uint32_t(count) > kMaxAnalyticSpheres) {
     r.fail_key("analytic_shadow", "the scene has " + std::to_string(count) +
                                       " analytic spheres; at most " +
@@ -275,13 +291,7 @@ class Builder {
     if (kind == "file:") {
       const std::string given = spec.substr(5);
       if (given.empty()) r.fail_key("mesh", "'file:' needs a path, e.g. file:meshes/rock.obj");
-      const fs::path file = resolve(ctx_, given);
-      std::error_code ec;
-      if (!fs::exists(file, ec)) {
-        r.fail_at(r.get("mesh"), r.name("mesh") + ": mesh file '" + given +
-                                     "' not found (resolved to " + file.string() + ")");
-      }
-      return file;
+      return input_file(r, "mesh", "mesh file", given);
     }
     const std::string model = spec.substr(6);
     const fs::path dir = model_dir();
@@ -368,11 +378,11 @@ class Random {
 };
 
 void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
-  const MeshUse use = builder.mesh(r,
-                                   {"mesh", "material", "count", "seed", "center", "radius",
-                                    "inner_radius", "flatten", "scale", "casts_shadows",
-                                    "analytic_shadow"},
-                                   true);
+  const MeshUse use =
+      builder.mesh(r,
+                   {"mesh", "material", "count", "seed", "center", "radius", "inner_radius",
+                    "flatten", "scale", "casts_shadows", "analytic_shadow"},
+                   true);
   const std::uint32_t material = builder.material(r);
   if (!r.has("count")) r.missing("count");
   if (!r.has("radius")) r.missing("radius");
@@ -464,8 +474,8 @@ void read_scatter(const Reader& r, Builder& builder, Scene& scene) {
     const glm::dmat4 transform = glm::translate(glm::dmat4(1.0), position) *
                                  glm::mat4_cast(glm::normalize(q)) *
                                  glm::scale(glm::dmat4(1.0), glm::dvec3(scale));
-    scene.instances.push_back(Instance{use.mesh, material, glm::mat4(transform) * use.normalize,
-                                       casts, analytic_radius});
+    scene.instances.push_back(
+        Instance{use.mesh, material, glm::mat4(transform) * use.normalize, casts, analytic_radius});
   }
   check_analytic_count(r, scene);
 }

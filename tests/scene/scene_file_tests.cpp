@@ -821,6 +821,41 @@ TEST(SceneErrors, MissingMeshFileNamesThePath) {
               HasSubstr("texture file 'nope.png' not found (resolved to "));
 }
 
+// Paths that exist but are no regular file, or hold a NUL byte, say so at the key's line (they
+// were "not found", or the OS cut the path at the NUL and opened another file).
+TEST(SceneErrors, FilePathsThatAreNoFileOrHoldANulSaySo) {
+  std::string text = "[[object]]\nmesh = \"file:/dev/zero\"\n";
+  EXPECT_THAT(error_of(text),
+              HasSubstr(at(text, "file:") + "[[object]] #1 mesh: mesh file '/dev/zero' is a "
+                                            "character device, not a regular file"));
+  text = "[[object]]\nmesh = \"file:.\"\n";  // the scene's own folder
+  EXPECT_THAT(error_of(text), HasSubstr("mesh file '.' is a directory, not a file"));
+  text = "[[object]]\nmesh = \"file:tri.obj\\u0000.3ds\"\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "file:") +
+                                        "[[object]] #1 mesh: mesh file 'tri.obj\\0.3ds' contains a "
+                                        "NUL byte (at 7); a path cannot"));
+  text = "[[material]]\nname = \"m\"\nmask_texture = \"/dev/zero\"\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "mask_texture") +
+                                        "[[material]] #1 mask_texture: texture file '/dev/zero' "
+                                        "is a character device, not a regular file"));
+  text = "[[material]]\nname = \"m\"\nmask_texture = \"a.png\\u0000b\"\n" + kBox;
+  EXPECT_THAT(error_of(text), HasSubstr("texture file 'a.png\\0b' contains a NUL byte (at 5)"));
+  // Scene files themselves.
+  try {
+    load_scene("/dev/null");
+    ADD_FAILURE() << "/dev/null loaded as a scene";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("scene file '/dev/null' is a character device, not a "
+                                    "regular file"));
+  }
+  try {
+    load_scene(kData);
+    ADD_FAILURE() << "a directory loaded as a scene";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("is a directory, not a file"));
+  }
+}
+
 TEST(SceneErrors, BrokenMeshFileNamesSceneLineAndFile) {
   // A file that exists but is not a mesh: the scene's line and the mesh file's own error.
   const std::string text = "[[object]]\nmesh = \"file:mask_checker.png\"\n";
