@@ -50,12 +50,13 @@ def score(m, passes, device, path):
     weight = sum(l["receivers"] for l in lights)
     flick = m.get("flicker", {}).get(path, {})
 
-    def weighted(key, rows):
+    def weighted(rows):
+        """The mean of (value, weight) pairs weighted by their weights; 0 with none."""
         w = sum(r[1] for r in rows)
         return sum(r[0] * r[1] for r in rows) / w if w else 0.0
 
-    still = weighted("mean_abs", [(l["mean_abs"], l["receivers"]) for l in lights])
-    path_err = weighted("path", [(flick[l["light"]]["path_mean_abs_error"], l["receivers"])
+    still = weighted([(l["mean_abs"], l["receivers"]) for l in lights])
+    path_err = weighted([(flick[l["light"]]["path_mean_abs_error"], l["receivers"])
                                  for l in lights if l["light"] in flick])
     truth_edges = sum(v.get("truth_edge_pixels", 0) for v in flick.values())
     excess = sum(v.get("excess_changed", 0) for v in flick.values())
