@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/render/contact_shadows.hpp>
 #include <sstream>
 
@@ -210,13 +211,17 @@ bool Script::execute(const std::vector<std::string>& a) {
     std::vector<fs::path> files;
     for (size_t i = 1; i < a.size(); ++i) {
       files.push_back(shader_file(a[i]));
-      // A file that is gone reloads only where a pipeline reads it (a deleted include keeps the
-      // last good pipelines until it is back); anything else names nothing to reload.
-      std::error_code ec;
-      if (!fs::exists(files.back(), ec) &&
-          session().renderer().pipelines_reading(files.back()).empty())
-        throw Error("reload " + a[i] + ": " + files.back().string() +
-                    " does not exist, and no pipeline reads it");
+      // A file reloads only where a pipeline reads it (a deleted include too: it keeps the last
+      // good pipelines until it is back); a file no pipeline reads names nothing to reload, and
+      // the message says what the path is (a typo, a file of another tree, a device).
+      if (session().renderer().pipelines_reading(files.back()).empty()) {
+        const std::string problem = file_problem(files.back());
+        throw Error("reload " + a[i] + ": " + files.back().string() + " " +
+                    (problem == "not found"
+                         ? std::string("does not exist, and no pipeline reads it")
+                     : problem.empty() ? std::string("is read by no pipeline: nothing to reload")
+                                       : problem + ", and no pipeline reads it"));
+      }
     }
     session().reload(files);
   } else if (cmd == "wait_reload") {
@@ -244,6 +249,8 @@ bool Script::execute(const std::vector<std::string>& a) {
           "(--shader-dir DIR)");
     const fs::path f = shader_file(a[1]);
     std::ifstream in(f, std::ios::binary);
+    if (const std::string problem = file_problem(f); !problem.empty())
+      throw Error("replace: " + f.string() + " " + problem);
     if (!in) throw Error("replace: " + f.string() + ": cannot read");
     std::stringstream buf;
     buf << in.rdbuf();

@@ -349,7 +349,14 @@ std::vector<uint8_t> Session::pixels() {
 
 void Session::screenshot(const fs::path& png) {
   const auto px = pixels();
-  if (png.has_parent_path()) fs::create_directories(png.parent_path());
+  if (png.has_parent_path()) {
+    std::error_code ec;
+    fs::create_directories(png.parent_path(), ec);
+    if (ec) {
+      throw Error(png.string() + ": cannot create the directory " + png.parent_path().string() +
+                  ": " + ec.message());
+    }
+  }
   render::write_png(png, renderer_->width(), renderer_->height(), px);
 }
 

@@ -67,10 +67,21 @@ void read_table(const Reader& r, std::string_view table, Scene& scene, bool chec
   for (const Param* p : params_of(table))
     if (!p->custom_read) read_param(r, *p, scene);
   if (!checks) return;
+  // A check that spans keys (pcss_min_filter_texels <= pcss_max_filter_texels) fails at the
+  // first of them the file gives, naming where each other one comes from: its line or the
+  // default.
   for (const Param* p : params_of(table)) {
     if (p->check == nullptr || !r.has(p->name())) continue;
     const std::string violation = p->check(scene);
-    if (!violation.empty()) r.fail_at(r.get(p->name()), violation);
+    if (violation.empty()) continue;
+    std::string others;
+    for (const Param* q : params_of(table)) {
+      if (q == p || q->check != p->check) continue;
+      others += std::string(others.empty() ? " (" : "; ") + std::string(q->name()) +
+                (r.has(q->name()) ? " at line " + std::to_string(r.line_of(r.get(q->name())))
+                                  : std::string(": the default"));
+    }
+    r.fail_at(r.get(p->name()), violation + (others.empty() ? "" : others + ")"));
   }
 }
 

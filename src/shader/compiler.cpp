@@ -1,8 +1,7 @@
-#include <glslang/build_info.h>
 #include <glslang/Public/ResourceLimits.h>
 #include <glslang/Public/ShaderLang.h>
 #include <glslang/SPIRV/GlslangToSpv.h>
-
+#include <glslang/build_info.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -13,10 +12,11 @@
 #include <fstream>
 #include <list>
 #include <map>
-#include <set>
 #include <memory>
 #include <mutex>
+#include <penumbra/core/file.hpp>
 #include <penumbra/shader/compiler.hpp>
+#include <set>
 #include <sstream>
 #include <system_error>
 #include <utility>
@@ -82,6 +82,16 @@ std::optional<std::string> read_file(const fs::path& path) {
   ss << in.rdbuf();
   if (in.bad()) return std::nullopt;
   return std::move(ss).str();
+}
+
+// Why read_file(path) gave nothing, for a message: "is a character device, not a regular
+// file", "not found", "is larger than 64 MiB" or "cannot be read".
+std::string unreadable_reason(const fs::path& path) {
+  if (std::string problem = file_problem(path); !problem.empty()) return problem;
+  std::error_code ec;
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (!ec && size > (std::uintmax_t(64) << 20)) return "is larger than 64 MiB";
+  return "cannot be read";
 }
 
 fs::path canonical_path(const fs::path& path) {
@@ -256,9 +266,20 @@ class Includer final : public glslang::TShader::Includer {
   IncludeResult* resolve(const std::string& header, const std::string& includer_name, size_t depth,
                          const std::vector<fs::path>& dirs) {
     sync_stack(includer_name, depth);
+    // A candidate that exists but is no regular file (a directory, a link to /dev/zero) is
+    // named when no later directory has the header: "cannot find" would send the user looking
+    // for a file that is there.
+    std::string not_a_file;
     for (const fs::path& dir : dirs) {
       const fs::path candidate = dir / header;
-      if (!is_file(candidate)) continue;
+      if (!is_file(candidate)) {
+        if (const std::string problem = file_problem(candidate);
+            not_a_file.empty() && problem != "not found") {
+          not_a_file = "include \"" + header + "\" (" + candidate.lexically_normal().string() +
+                       ") " + problem;
+        }
+        continue;
+      }
       const fs::path path = canonical_path(candidate);
       const std::string name = path.string();
 
@@ -272,7 +293,10 @@ class Includer final : public glslang::TShader::Includer {
       auto content = sources_.contents.find(name);
       if (content == sources_.contents.end()) {
         std::optional<std::string> text = read_file(path);
-        if (!text) return error_result("cannot read include \"" + header + "\" (" + name + ")");
+        if (!text) {
+          return error_result("cannot read include \"" + header + "\": " + name + " " +
+                              unreadable_reason(path));
+        }
         // The contents map keeps what the file holds (the disk cache hashes it); the text
         // glslang reads may have its #version blanked.
         content = sources_.contents.emplace(name, *text).first;
@@ -295,6 +319,7 @@ class Includer final : public glslang::TShader::Includer {
       return new IncludeResult(name, served.data(), served.size(), nullptr);
     }
 
+    if (!not_a_file.empty()) return error_result(std::move(not_a_file));
     std::string message = "cannot find include \"" + header + "\" (searched: ";
     if (dirs.empty()) message += "no include directories";
     for (size_t i = 0; i < dirs.size(); ++i) {
@@ -706,7 +731,10 @@ CompiledShader Compiler::compile_file(const fs::path& file, std::optional<Stage>
   const Stage actual_stage = stage ? *stage : stage_from_path(file);
   const fs::path path = canonical_path(file);
   std::optional<std::string> text = is_file(path) ? read_file(path) : std::nullopt;
-  if (!text) throw Error("cannot read shader file '" + file.string() + "'");
+  if (!text) {
+    throw Error("cannot read shader file: '" + printable(file.string()) + "' " +
+                unreadable_reason(path));
+  }
   CompiledShader result = compile(*text, path.string(), path, actual_stage, extra_defines);
   result.name = file.string();
   return result;

@@ -402,15 +402,14 @@ void compare_stage_variables(const std::vector<StageVariable>& made_for,
                              const std::vector<StageVariable>& next, const char* what,
                              std::vector<std::string>& out) {
   for (const StageVariable& n : next) {
-    const auto it = std::find_if(made_for.begin(), made_for.end(), [&](const StageVariable& m) {
-      return m.location == n.location;
-    });
-    const std::string text = n.type + (n.array_size != 1 ? "[" + std::to_string(n.array_size) + "]"
-                                                           : std::string()) +
-                             " '" + n.name + "'";
+    const auto it = std::find_if(made_for.begin(), made_for.end(),
+                                 [&](const StageVariable& m) { return m.location == n.location; });
+    const std::string text =
+        n.type + (n.array_size != 1 ? "[" + std::to_string(n.array_size) + "]" : std::string()) +
+        " '" + n.name + "'";
     if (it == made_for.end()) {
-      out.push_back(std::string(what) + " at location " + std::to_string(n.location) + " (" +
-                    text + ") is new: the pipeline has nothing there");
+      out.push_back(std::string(what) + " at location " + std::to_string(n.location) + " (" + text +
+                    ") is new: the pipeline has nothing there");
     } else if (it->type != n.type || it->array_size != n.array_size) {
       out.push_back(std::string(what) + " at location " + std::to_string(n.location) + " was " +
                     it->type + " '" + it->name + "', is now " + text);
@@ -456,8 +455,15 @@ std::vector<std::string> interface_changes(const Reflection& made_for, const Ref
     const auto text = [](const std::array<uint32_t, 3>& w) {
       return std::to_string(w[0]) + "x" + std::to_string(w[1]) + "x" + std::to_string(w[2]);
     };
-    out.push_back("workgroup size was " + text(made_for.workgroup_size) + ", is now " +
-                  text(next.workgroup_size) + ": the pass dispatches for the first");
+    // Named by the first layout qualifier that differs, which locates the declaration.
+    const char* axis[3] = {"local_size_x", "local_size_y", "local_size_z"};
+    int changed = 0;
+    while (changed < 2 && made_for.workgroup_size[changed] == next.workgroup_size[changed])
+      ++changed;
+    out.push_back("workgroup size ('" + std::string(axis[changed]) + "') was " +
+                  text(made_for.workgroup_size) + ", is now " + text(next.workgroup_size) +
+                  ": the pass sizes its dispatch for " + text(made_for.workgroup_size) +
+                  " when the pipeline is built, so a new size takes a restart");
   }
   for (const SpecConstant& n : next.spec_constants) {
     const auto it = std::find_if(made_for.spec_constants.begin(), made_for.spec_constants.end(),

@@ -158,8 +158,9 @@ TEST_F(ReloadTest, AnEditThatMovesABindingIsRefusedAndTheImageStays) {
   const std::string decl = "layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D";
   const int line = testing::line_of(testing::read_text(shader("render/shadow_resolve.comp")), decl);
   ASSERT_GT(line, 0);
-  for (const std::string moved : {"layout(set = 1, binding = 6, rgba16f) uniform writeonly image2D",
-                                  "layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D"}) {
+  for (const std::string moved :
+       {"layout(set = 1, binding = 6, rgba16f) uniform writeonly image2D",
+        "layout(set = 0, binding = 9, rgba16f) uniform writeonly image2D"}) {
     edit("render/shadow_resolve.comp", decl, moved);
     const auto rec = s->wait_reload(kTimeout);
     ASSERT_TRUE(rec) << moved;
@@ -185,7 +186,8 @@ TEST_F(ReloadTest, AnEditThatMovesABindingIsRefusedAndTheImageStays) {
 TEST_F(ReloadTest, RemovingASharedStructMemberSwapsNothing) {
   auto s = start();
   const auto before = s->pixels();
-  const size_t reading = s->renderer().pipelines_reading(shader("penumbra/frame_types.glsl")).size();
+  const size_t reading =
+      s->renderer().pipelines_reading(shader("penumbra/frame_types.glsl")).size();
   ASSERT_GT(reading, 3u);
   edit("penumbra/frame_types.glsl", "  vec4 viewport;\n", "");
   const auto rec = s->wait_reload(kTimeout);
@@ -213,7 +215,9 @@ TEST_F(ReloadTest, AFileReplacedByASymlinkToDevZeroIsAnErrorNotAHang) {
   ASSERT_TRUE(rec) << "the change to a file that became a symlink must be seen";
   EXPECT_TRUE(rec->result.rebuilt.empty());
   EXPECT_FALSE(rec->result.failed.empty());
-  EXPECT_THAT(s->error_text(), HasSubstr("noise.glsl")) << s->error_text();
+  EXPECT_THAT(s->error_text(),
+              HasSubstr("penumbra/noise.glsl) is a character device, not a regular file"))
+      << s->error_text();
   s->render();
   EXPECT_EQ(s->pixels(), before);
   fs::remove(noise);
@@ -404,7 +408,8 @@ TEST_F(ReloadTest, EditingTheTargetOfASymlinkedShaderReloads) {
   const auto before = s->pixels();
   testing::write_text(outside / "unrelated.glsl", "float unrelated() { return 1.0; }\n");
   EXPECT_FALSE(s->wait_reload(1000ms)) << "a file no pipeline reads";
-  testing::write_text(target, testing::replaced(testing::read_text(target), kExposure, kHalfExposure));
+  testing::write_text(target,
+                      testing::replaced(testing::read_text(target), kExposure, kHalfExposure));
   const auto rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec) << "the target's edit was not seen";
   EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"tonemap"});
@@ -470,10 +475,14 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
     std::optional<scene::Filter> spot, point;  // the lights' own filters
   };
   const std::vector<Case> cases{
-      {"default", "hard", "lit", {}, {}},         {"default", "pcf", "penumbra", {}, {}},
-      {"default", "pcss", "lit", {}, {}},         {"default", "poisson", "shadow_factor", {}, {}},
-      {"indoor", "pcf", "lit", {}, {}},           {"indoor", "pcss", "penumbra", {}, {}},
-      {"indoor", "poisson", "lit", {}, {}},       {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
+      {"default", "hard", "lit", {}, {}},
+      {"default", "pcf", "penumbra", {}, {}},
+      {"default", "pcss", "lit", {}, {}},
+      {"default", "poisson", "shadow_factor", {}, {}},
+      {"indoor", "pcf", "lit", {}, {}},
+      {"indoor", "pcss", "penumbra", {}, {}},
+      {"indoor", "poisson", "lit", {}, {}},
+      {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
       {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2}};
   for (const Case& c : cases) {
     scene::Scene sc = small_scene(c.scene);

@@ -191,6 +191,18 @@ TEST_F(ScriptTest, ErrorsNameTheLineTheCommandAndTheValue) {
   EXPECT_THAT(error_of("replace penumbra/pcf.glsl \"no such text\" \"x\"\n"),
               HasSubstr("does not occur in"));
   EXPECT_THAT(error_of("echo \"unterminated\n"), HasSubstr("t.txt:1: unterminated"));
+  // A reload whose target no pipeline reads says what the path is.
+  EXPECT_THAT(error_of("reload penumbra/nothere.glsl\n"),
+              HasSubstr("t.txt:1: reload penumbra/nothere.glsl: " +
+                        (tree.shaders() / "penumbra/nothere.glsl").string() +
+                        " does not exist, and no pipeline reads it"));
+  EXPECT_THAT(error_of("reload /dev/zero\n"),
+              HasSubstr("t.txt:1: reload /dev/zero: /dev/zero is a character device, not a "
+                        "regular file, and no pipeline reads it"));
+  testing::write_text(tree.shaders() / "unused.glsl", "float unused() { return 1.0; }\n");
+  EXPECT_THAT(error_of("reload unused.glsl\n"),
+              HasSubstr("unused.glsl is read by no pipeline: nothing to reload"));
+  EXPECT_EQ(error_of("reload penumbra/pcf.glsl\n"), "") << "a file pipelines read reloads";
   EXPECT_EQ(error_of("# nothing but a comment\n\nquit\nrendr\n"), "") << "quit stops the script";
 }
 

@@ -237,7 +237,13 @@ TEST(Params, NumbersThatDoNotFitAFloatAreRejected) {
 TEST(Params, CrossKeyChecksHoldInFilesAndSets) {
   EXPECT_THAT(
       error_of("[shadows]\npcss_min_filter_texels = 8\npcss_max_filter_texels = 4\n" + kBox),
-      HasSubstr("params.toml:2: shadows.pcss_min_filter_texels = 8 must not exceed"));
+      HasSubstr("params.toml:2: shadows.pcss_min_filter_texels = 8 must not exceed "
+                "pcss_max_filter_texels = 4 (pcss_max_filter_texels at line 3)"));
+  // Only the maximum given: at its line, the minimum named as the default.
+  EXPECT_THAT(error_of("[shadows]\n\npcss_max_filter_texels = 0.5\n" + kBox),
+              HasSubstr("params.toml:3: shadows.pcss_min_filter_texels = 1 must not exceed "
+                        "pcss_max_filter_texels = 0.5 (pcss_min_filter_texels: the "
+                        "default)"));
   EXPECT_THAT(set_error("shadows.pcss_min_filter_texels", "40"), HasSubstr("must not exceed"));
   EXPECT_THAT(set_error("camera.far", "0.01"), HasSubstr("must be greater than near"));
   EXPECT_THAT(set_error("camera.target", "0,2,6"), HasSubstr("target equals its position"));

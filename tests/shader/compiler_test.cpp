@@ -261,6 +261,41 @@ TEST(ShaderCompiler, MissingIncludeNamesHeaderIncluderAndSearchedDirs) {
   EXPECT_EQ(std::string(e.what()), expected);
 }
 
+// An include or a stage file that exists but is no regular file (a link to /dev/zero, a
+// directory) says what it is, at the #include line: "cannot find" would send the user looking
+// for a file that is there. A header that a later include directory holds as a file still wins.
+TEST(ShaderCompiler, AnIncludeThatIsNoRegularFileSaysWhatItIs) {
+  TempDir dir;
+  fs::create_directories(dir.path() / "a");
+  fs::create_directories(dir.path() / "b");
+  write_file(dir.path() / "main.comp",
+             "#version 460\nlayout(local_size_x = 1) in;\n#include \"h.glsl\"\n"
+             "layout(std430, binding = 0) buffer O { float r; };\nvoid main() { r = h(); }\n");
+  fs::create_symlink("/dev/zero", dir.path() / "a/h.glsl");
+  Compiler compiler({.include_dirs = {dir.path() / "a", dir.path() / "b"}});
+  CompileError e = expect_compile_error([&] { compiler.compile_file(dir.path() / "main.comp"); });
+  ASSERT_EQ(e.diagnostics().size(), 1u) << e.what();
+  EXPECT_EQ(e.diagnostics()[0].line, 3);
+  EXPECT_EQ(e.diagnostics()[0].message, "include \"h.glsl\" (" +
+                                            (dir.path() / "a/h.glsl").string() +
+                                            ") is a character device, not a regular file");
+  fs::create_directories(dir.path() / "h.glsl");  // the includer's own directory comes first
+  e = expect_compile_error([&] { compiler.compile_file(dir.path() / "main.comp"); });
+  EXPECT_EQ(e.diagnostics()[0].message, "include \"h.glsl\" (" + (dir.path() / "h.glsl").string() +
+                                            ") is a directory, not a file");
+  write_file(dir.path() / "b/h.glsl", "float h() { return 2.0; }\n");
+  EXPECT_NO_THROW(compiler.compile_file(dir.path() / "main.comp"));
+
+  try {
+    compiler.compile_file(dir.path() / "a/h.glsl", Stage::compute);
+    ADD_FAILURE() << "a stage file that is /dev/zero must not compile";
+  } catch (const penumbra::Error& err) {
+    EXPECT_EQ(std::string(err.what()), "cannot read shader file: '" +
+                                           (dir.path() / "a/h.glsl").string() +
+                                           "' is a character device, not a regular file");
+  }
+}
+
 TEST(ShaderCompiler, IncludeCycleIsAnError) {
   Compiler compiler;
   const CompileError e = expect_compile_error([&] { compiler.compile_file(data("cycle.comp")); });
@@ -470,8 +505,9 @@ TEST(ShaderCompiler, ALeadingVersionOfAnIncludedFileIsDroppedAndNoted) {
              "// a noise library\n/* with a\n   block comment */\n#version 120\n"
              "float noise_value() { return 0.5; }\n"
              "float noise_broken() { return undefined_name; }\n");
-  const std::string main = "#version 460\n#include \"noise.glsl\"\n"
-                           "layout(local_size_x = 1) in;\nvoid main() {}\n";
+  const std::string main =
+      "#version 460\n#include \"noise.glsl\"\n"
+      "layout(local_size_x = 1) in;\nvoid main() {}\n";
   write_file(dir.path() / "main.comp", main);
   Compiler compiler({{dir.path()}});
   // The error on line 6 is reported on line 6: the blanked directive kept its line.
@@ -499,8 +535,10 @@ TEST(ShaderCompiler, ALeadingVersionOfAnIncludedFileIsDroppedAndNoted) {
 TEST(ShaderCompiler, IncludeOnceLetsGuardFreeFilesShareAHelper) {
   TempDir dir;
   write_file(dir.path() / "helper.glsl", "float helper(float x) { return x * 2.0; }\n");
-  write_file(dir.path() / "a.glsl", "#include \"helper.glsl\"\nfloat a(float x) { return helper(x); }\n");
-  write_file(dir.path() / "b.glsl", "#include \"helper.glsl\"\nfloat b(float x) { return helper(x) + 1.0; }\n");
+  write_file(dir.path() / "a.glsl",
+             "#include \"helper.glsl\"\nfloat a(float x) { return helper(x); }\n");
+  write_file(dir.path() / "b.glsl",
+             "#include \"helper.glsl\"\nfloat b(float x) { return helper(x) + 1.0; }\n");
   write_file(dir.path() / "main.comp",
              "#version 460\n#include \"a.glsl\"\n#include \"b.glsl\"\n"
              "layout(local_size_x = 1) in;\nvoid main() { float y = a(1.0) + b(2.0); }\n");
@@ -577,8 +615,7 @@ TEST(ShaderCompiler, DiskCacheAnswersALaterProcessUntilAFileItReadChanges) {
   CompileOptions blocked;
   blocked.disk_cache_dir = dir.path() / "blocked";
   const CompiledShader plain = Compiler(blocked).compile_source(
-      "#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n", "plain.comp",
-      Stage::compute);
+      "#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n", "plain.comp", Stage::compute);
   EXPECT_FALSE(plain.spirv.empty());
   EXPECT_FALSE(Compiler(blocked)
                    .compile_source("#version 460\nlayout(local_size_x = 1) in;\nvoid main() {}\n",
