@@ -185,8 +185,15 @@ Options parse(int argc, char** argv) {
       o.list_params = true;
     else if (a == "--shader-dir") {
       o.shader_dir = value();
-      if (!fs::is_directory(o.shader_dir))
-        throw Error("--shader-dir " + o.shader_dir.string() + ": not a directory");
+      std::error_code ec;
+      if (!fs::is_directory(o.shader_dir, ec)) {
+        const std::string problem = penumbra::file_problem(o.shader_dir);
+        throw Error("--shader-dir " + penumbra::printable(o.shader_dir.string()) + ": " +
+                    (problem == "not found" ? problem
+                     : problem.empty()
+                         ? std::string("is a file, not a directory")
+                         : problem.substr(0, problem.find(',')) + ", not a directory"));
+      }
     } else if (a == "--watch")
       o.watch = true;
     else if (a == "--exit-after-frames")
@@ -198,9 +205,15 @@ Options parse(int argc, char** argv) {
     else if (a == "--script") {
       const std::string file = value();
       std::error_code ec;
-      if (file != "-" && fs::is_directory(file, ec))
-        throw Error("--script " + file + ": is a directory, not a script file");
-      if (file != "-" && !fs::exists(file, ec)) throw Error("--script " + file + ": no such file");
+      // A regular file or a pipe (--script <(...)); a directory or a device (/dev/zero would
+      // be read for ever) is refused, saying which.
+      if (const std::string problem = penumbra::file_problem(file);
+          file != "-" && !problem.empty() && problem.find("FIFO") == std::string::npos) {
+        throw Error("--script " + penumbra::printable(file) + ": " +
+                    (problem == "not found"
+                         ? std::string("no such file")
+                         : problem.substr(0, problem.find(',')) + ", not a script file"));
+      }
       o.scripts.emplace_back("script", file);
     } else if (a == "--command")
       o.scripts.emplace_back("command", value());

@@ -220,8 +220,9 @@ TEST_F(ScriptTest, ReplaceRefusesTheRepositoryShaders) {
   }
 }
 
-// Command-line values out of range are errors naming the flag and the range; a directory is not
-// a script; nothing is rendered or written for them.
+// Command-line values out of range are errors naming the flag and the range; a directory or a
+// device is not a script, a device or a missing path no shader dir; nothing is rendered or written
+// for them.
 TEST(ViewFlags, OutOfRangeValuesAndADirectoryScriptAreErrors) {
   TempTree tree(false);
   const std::vector<std::pair<std::string, std::string>> cases{
@@ -234,6 +235,9 @@ TEST(ViewFlags, OutOfRangeValuesAndADirectoryScriptAreErrors) {
       {"--frames -1", "--frames -1: expected a whole number"},
       {"--script " + tree.root().string(), "is a directory, not a script file"},
       {"--script " + (tree.root() / "missing.txt").string(), "missing.txt: no such file"},
+      {"--script /dev/zero", "--script /dev/zero: is a character device, not a script file"},
+      {"--shader-dir /dev/zero", "--shader-dir /dev/zero: is a character device, not a directory"},
+      {"--shader-dir " + (tree.root() / "none").string(), "none: not found"},
   };
   for (const auto& [flags, says] : cases) {
     const auto r = view(flags + " --out " + (tree.root() / "out").string());
