@@ -60,6 +60,11 @@ void atomic_write(const fs::path& file, const std::string& text) {
 }  // namespace
 
 std::vector<std::string> split_command(const std::string& line) {
+  // A NUL byte would cut every path and message at it: the line is refused, shown whole.
+  if (const size_t nul = line.find('\0'); nul != std::string::npos) {
+    throw Error("'" + printable(line) + "' holds a NUL byte (column " + std::to_string(nul + 1) +
+                ")");
+  }
   std::vector<std::string> out;
   size_t i = 0;
   while (i < line.size()) {

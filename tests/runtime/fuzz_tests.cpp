@@ -433,6 +433,7 @@ TEST_F(Fuzz, SeededCorpusEveryScriptCommandWithAMissingTargetFailsAtItsLine) {
       {"expect_rebuilt no-such-pipeline", "no reload happened"},
       {"reload penumbra/pcf.glsl\nexpect_rebuilt no-such-pipeline", "no-such-pipeline"},
       {"expect_reload_error no_such_text", "no_such_text"},
+      {std::string("reload a\0b.glsl", 15), "'reload a\\0b.glsl' holds a NUL byte (column 9)"},
   };
   for (const auto& [commands, says] : corpus) {
     runtime::ScriptSetup setup;

@@ -191,6 +191,8 @@ TEST_F(ScriptTest, ErrorsNameTheLineTheCommandAndTheValue) {
   EXPECT_THAT(error_of("replace penumbra/pcf.glsl \"no such text\" \"x\"\n"),
               HasSubstr("does not occur in"));
   EXPECT_THAT(error_of("echo \"unterminated\n"), HasSubstr("t.txt:1: unterminated"));
+  EXPECT_THAT(error_of("\nreload pen" + std::string(1, '\0') + "cf.glsl\n"),
+              HasSubstr("t.txt:2: 'reload pen\\0cf.glsl' holds a NUL byte (column 11)"));
   // A reload whose target no pipeline reads says what the path is.
   EXPECT_THAT(error_of("reload penumbra/nothere.glsl\n"),
               HasSubstr("t.txt:1: reload penumbra/nothere.glsl: " +
