@@ -39,6 +39,7 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
   std::vector<penumbra::reference::CameraPath> flicker;   // --flicker
   uint32_t timing_frames = 0;                             // --timing-frames
+  bool images = true;                                     // --no-images
   penumbra::reference::FlickerOptions flicker_options;
 };
 
@@ -52,6 +53,7 @@ void usage(FILE* f) {
       "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
       "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
       "                          [--flicker-truth] [--no-failure-modes] [--timing-frames N]\n"
+      "                          [--no-images]\n"
       "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
       "  --set        override a parameter-table key after loading, e.g.\n"
       "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
@@ -71,6 +73,7 @@ void usage(FILE* f) {
       "               (Vulkan timestamp queries) into metrics.json's \"timings\"\n"
       "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
       "               rays; metrics.json's acne, leak and contact_gap_* fields, modes.png)\n"
+      "  --no-images  write metrics.json alone, no PNGs (penumbra-tune's points)\n"
       "  --threads    tracing threads (default: all)\n"
       "  --terminator where shadow rays start on smooth-shaded meshes: on the smooth surface\n"
       "               the vertex normals describe (default) or on the flat triangles\n"
@@ -173,6 +176,8 @@ Options parse(int argc, char** argv) {
       o.timing_frames = uint32_t(number(a, value(), 1, 10000));
     else if (a == "--no-failure-modes")
       o.measure.failure_modes = false;
+    else if (a == "--no-images")
+      o.images = false;
     else if (a == "--help" || a == "-h") {
       usage(stdout);
       std::exit(0);
@@ -189,6 +194,15 @@ std::string json_string(const std::string& s) {
 }
 
 int run(int argc, char** argv) {
+  // Wall seconds per phase, in metrics.json and on stdout: where a tuning point's time goes.
+  const auto started = std::chrono::steady_clock::now();
+  auto lap_start = started;
+  std::vector<std::pair<std::string, double>> phases;
+  const auto lap = [&](const char* phase) {
+    const auto now = std::chrono::steady_clock::now();
+    phases.emplace_back(phase, std::chrono::duration<double>(now - lap_start).count());
+    lap_start = now;
+  };
   Options o = parse(argc, argv);
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
@@ -208,7 +222,9 @@ int run(int argc, char** argv) {
   ro.visibility_output = true;
   penumbra::render::Renderer renderer(ctx, scene, ro);
   renderer.render(o.frame);
+  lap("setup");
   const auto m = penumbra::reference::measure_frame(renderer, o.measure);
+  lap("still");
   if (m.lights.empty())
     std::printf("note: scene '%s' has no lights to measure\n", scene.name.c_str());
   if (m.triangles == 0)
@@ -292,6 +308,7 @@ int run(int argc, char** argv) {
               "", "", 100.0 * f.truth_fraction(), f.truth_edge_pixels,
               100.0 * f.truth_fraction_lit(), 100.0 * f.excess_fraction(),
               100.0 * f.excess_fraction_lit(), f.path_mean_abs_error, f.path_mean_abs_error_lit);
+        if (!o.images) continue;
         fs::create_directories(o.out);
         penumbra::render::write_png(
             o.out / ("flicker-" + f.path + "-" + f.light + ".png"), f.width, f.height,
@@ -300,6 +317,7 @@ int run(int argc, char** argv) {
       header << "}";
     }
     header << "}, \"flicker_frames\": " << o.flicker_options.frames;
+    lap("paths");
   }
   // GPU time per pass, as penumbra-view measures it (its renderer has no visibility output, which
   // costs the resolves a write per light): the median over the frames after a warm-up.
@@ -341,8 +359,21 @@ int run(int argc, char** argv) {
       header << (i ? ", " : "") << json_string(order[i]) << ": "
              << penumbra::stats::median(samples[order[i]]);
     header << "}}";
+    lap("timing");
   }
-  penumbra::reference::write_measurement(m, o.out, header.str());
+  phases.emplace_back(
+      "total", std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count());
+  header << ", \"seconds\": {";
+  std::string phase_line;
+  for (size_t i = 0; i < phases.size(); ++i) {
+    header << (i ? ", " : "") << json_string(phases[i].first) << ": " << phases[i].second;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%s%s %.2f", i ? ", " : "", phases[i].first.c_str(),
+                  phases[i].second);
+    phase_line += buf;
+  }
+  header << "}";
+  penumbra::reference::write_measurement(m, o.out, header.str(), o.images);
   for (const auto& l : m.lights) {
     std::printf("%s  (%s%llu rays, %.1f s)\n", l.metrics.to_line().c_str(),
                 l.reference.from_cache ? "cached: " : "", (unsigned long long)l.reference.rays,
@@ -360,8 +391,10 @@ int run(int argc, char** argv) {
         std::printf("not seen (no umbra receiver near a contact)\n");
     }
   }
-  std::printf("wrote %s/{lit,reference,visibility,error,modes}*.png and metrics.json (%s, %ux%u)\n",
-              o.out.string().c_str(), ctx.info().name.c_str(), m.width, m.height);
+  std::printf("seconds: %s\n", phase_line.c_str());
+  std::printf("wrote %s/%smetrics.json (%s, %ux%u)\n", o.out.string().c_str(),
+              o.images ? "{lit,reference,visibility,error,modes}*.png and " : "",
+              ctx.info().name.c_str(), m.width, m.height);
   if (ctx.validation_enabled() && ctx.validation_sink().total_seen() != 0) {
     std::fprintf(stderr, "validation: %zu messages\n", ctx.validation_sink().total_seen());
     return 1;

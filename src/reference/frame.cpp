@@ -184,24 +184,29 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
 }
 
 std::vector<fs::path> write_measurement(const FrameMeasurement& m, const fs::path& dir,
-                                        const std::string& json_header) {
+                                        const std::string& json_header, bool images) {
   std::error_code ec;
   fs::create_directories(dir, ec);
   if (ec) throw Error("cannot create " + dir.string() + ": " + ec.message());
   std::vector<fs::path> written;
-  auto png = [&](const std::string& name, const std::vector<uint8_t>& rgba) {
-    render::write_png(dir / name, m.width, m.height, rgba);
+  // The images are made only when written (each is a pass over the frame).
+  auto png = [&](const std::string& name, const auto& make) {
+    if (!images) return;
+    render::write_png(dir / name, m.width, m.height, make());
     written.push_back(dir / name);
   };
-  png("lit.png", m.lit);
+  png("lit.png", [&] { return m.lit; });
   const bool suffix = m.lights.size() > 1;
   std::string lights_json;
   for (const auto& l : m.lights) {
     const std::string s = suffix ? "-" + l.light.name() : "";
-    png("reference" + s + ".png", visibility_image(l.reference.value, l.classes, m.lit));
-    png("visibility" + s + ".png", visibility_image(l.gpu, l.classes, m.lit));
-    png("error" + s + ".png", error_image(l.gpu, l.reference.value, l.classes, m.lit));
-    if (l.has_failure_modes) png("modes" + s + ".png", failure_mode_image(l.modes, m.lit));
+    png("reference" + s + ".png",
+        [&] { return visibility_image(l.reference.value, l.classes, m.lit); });
+    png("visibility" + s + ".png", [&] { return visibility_image(l.gpu, l.classes, m.lit); });
+    png("error" + s + ".png",
+        [&] { return error_image(l.gpu, l.reference.value, l.classes, m.lit); });
+    if (l.has_failure_modes)
+      png("modes" + s + ".png", [&] { return failure_mode_image(l.modes, m.lit); });
     std::string j = l.metrics.to_json();
     j.pop_back();  // add the tracer's numbers to the light's object
     if (l.has_failure_modes) j += ", " + l.failure.to_json();

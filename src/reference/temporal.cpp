@@ -9,7 +9,9 @@
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/reference/temporal.hpp>
 #include <penumbra/render/frame_types.hpp>
+#include <thread>
 #include <utility>
+#include <vector>
 
 namespace penumbra::reference {
 namespace {
@@ -181,6 +183,42 @@ class Reprojection {
   glm::dvec3 eye_{0.0};
 };
 
+// Runs body(y0, y1, block) over the frame's rows in blocks of kRowBlock, on the machine's
+// threads. What a block sums goes in its own slot and the slots are added in block order, so
+// the numbers are the same on any machine, whatever the thread count.
+constexpr uint32_t kRowBlock = 16;
+
+template <class Partial, class Body>
+Partial for_row_blocks(uint32_t h, Body&& body) {
+  const uint32_t blocks = (h + kRowBlock - 1) / kRowBlock;
+  std::vector<Partial> partial(blocks);
+  const uint32_t threads =
+      std::clamp(std::thread::hardware_concurrency(), 1u, blocks ? blocks : 1u);
+  auto work = [&](uint32_t t) {
+    for (uint32_t b = t; b < blocks; b += threads)
+      body(b * kRowBlock, std::min(h, (b + 1) * kRowBlock), partial[b]);
+  };
+  std::vector<std::thread> pool;
+  for (uint32_t t = 1; t < threads; ++t) pool.emplace_back(work, t);
+  work(0);
+  for (auto& t : pool) t.join();
+  Partial total{};
+  for (const Partial& p : partial) total += p;
+  return total;
+}
+
+struct Counts {
+  size_t edge = 0, changed = 0;
+  double edge_weight = 0.0, changed_weight = 0.0;
+  Counts& operator+=(const Counts& o) {
+    edge += o.edge;
+    changed += o.changed;
+    edge_weight += o.edge_weight;
+    changed_weight += o.changed_weight;
+    return *this;
+  }
+};
+
 }  // namespace
 
 void count_flicker(const FrameSample& previous, const FrameSample& current, float threshold,
@@ -188,19 +226,26 @@ void count_flicker(const FrameSample& previous, const FrameSample& current, floa
                    double* edge_weight, double* changed_weight) {
   const Reprojection r(previous, current);
   const uint32_t w = current.receivers.width, h = current.receivers.height;
-  for (uint32_t y = 0; y < h; ++y)
-    for (uint32_t x = 0; x < w; ++x) {
-      const PixelFlicker f = r.at(x, y, threshold);
-      if (!f.measured || !f.edge) continue;
-      const size_t i = size_t{y} * w + x;
-      ++edge_pixels;
-      const double weight = r.weight(i);
-      if (edge_weight) *edge_weight += weight;
-      if (!f.changed) continue;
-      ++changed;
-      if (changed_weight) *changed_weight += weight;
-      if (per_pixel && per_pixel->size() == current.receivers.size()) ++(*per_pixel)[i];
-    }
+  const bool count_pixels = per_pixel && per_pixel->size() == current.receivers.size();
+  const Counts c = for_row_blocks<Counts>(h, [&](uint32_t y0, uint32_t y1, Counts& out) {
+    for (uint32_t y = y0; y < y1; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const PixelFlicker f = r.at(x, y, threshold);
+        if (!f.measured || !f.edge) continue;
+        const size_t i = size_t{y} * w + x;
+        ++out.edge;
+        const double weight = r.weight(i);
+        out.edge_weight += weight;
+        if (!f.changed) continue;
+        ++out.changed;
+        out.changed_weight += weight;
+        if (count_pixels) ++(*per_pixel)[i];  // each pixel in one block only
+      }
+  });
+  edge_pixels += c.edge;
+  changed += c.changed;
+  if (edge_weight) *edge_weight += c.edge_weight;
+  if (changed_weight) *changed_weight += c.changed_weight;
 }
 
 std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSample& current,
@@ -208,11 +253,13 @@ std::vector<uint8_t> changed_pixels(const FrameSample& previous, const FrameSamp
   const Reprojection r(previous, current);
   const uint32_t w = current.receivers.width, h = current.receivers.height;
   std::vector<uint8_t> out(size_t{w} * h, 0);
-  for (uint32_t y = 0; y < h; ++y)
-    for (uint32_t x = 0; x < w; ++x) {
-      const PixelFlicker f = r.at(x, y, threshold);
-      out[size_t{y} * w + x] = f.measured && f.changed ? 1 : 0;
-    }
+  for_row_blocks<Counts>(h, [&](uint32_t y0, uint32_t y1, Counts&) {
+    for (uint32_t y = y0; y < y1; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const PixelFlicker f = r.at(x, y, threshold);
+        out[size_t{y} * w + x] = f.measured && f.changed ? 1 : 0;
+      }
+  });
   return out;
 }
 
@@ -233,16 +280,20 @@ void count_excess_flicker(const FrameSample& previous, const FrameSample& curren
         if (excused[size_t{ny} * w + nx]) return true;
     return false;
   };
-  for (uint32_t y = 0; y < h; ++y)
-    for (uint32_t x = 0; x < w; ++x) {
-      const size_t i = size_t{y} * w + x;
-      if (excused_near(x, y)) continue;
-      const PixelFlicker f = r.at(x, y, threshold);
-      if (!f.measured || !f.edge || !f.changed) continue;
-      ++flicker.excess_changed;
-      flicker.excess_changed_weight += r.weight(i);
-      ++flicker.excess_per_pixel[i];
-    }
+  const Counts c = for_row_blocks<Counts>(h, [&](uint32_t y0, uint32_t y1, Counts& out) {
+    for (uint32_t y = y0; y < y1; ++y)
+      for (uint32_t x = 0; x < w; ++x) {
+        const size_t i = size_t{y} * w + x;
+        if (excused_near(x, y)) continue;
+        const PixelFlicker f = r.at(x, y, threshold);
+        if (!f.measured || !f.edge || !f.changed) continue;
+        ++out.changed;
+        out.changed_weight += r.weight(i);
+        ++flicker.excess_per_pixel[i];
+      }
+  });
+  flicker.excess_changed += c.changed;
+  flicker.excess_changed_weight += c.changed_weight;
 }
 
 std::vector<float> accumulate_visibility(const FrameSample& previous, const FrameSample& current,

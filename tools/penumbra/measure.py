@@ -37,7 +37,8 @@ def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
     size_arg = ["--size", size] if size else []
     rout = os.path.join(work, "reference")
     run([tools.reference, "--scene", scene, "--out", rout, "--flicker", path, "--flicker-frames",
-         str(path_frames), "--flicker-truth", "--timing-frames", str(frames)] + size_arg +
+         str(path_frames), "--flicker-truth", "--timing-frames", str(frames), "--no-images"] +
+        size_arg +
         setargs(sets))
     with open(os.path.join(rout, "metrics.json")) as f:
         m = json.load(f)
@@ -75,6 +76,7 @@ def score(m, passes, device, path):
         "still_error": still,
         "leak": worst("leak"),
         "receivers": weight,
+        "seconds": m.get("seconds", {}),
         "device": device,
         "passes": passes,
         "lights": {l["light"]: {k: l.get(k) for k in

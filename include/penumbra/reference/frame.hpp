@@ -85,8 +85,10 @@ FrameMeasurement measure_frame(render::Renderer& renderer, const MeasureOptions&
 
 // Writes lit.png, and per light reference, visibility (the GPU's) and error PNGs (suffixed
 // -<light> when the scene has several lights) and metrics.json into dir; returns the paths.
+// images = false writes metrics.json alone (a tuning point: the numbers are what it keeps).
 std::vector<std::filesystem::path> write_measurement(const FrameMeasurement& m,
                                                      const std::filesystem::path& dir,
-                                                     const std::string& json_header);
+                                                     const std::string& json_header,
+                                                     bool images = true);
 
 }  // namespace penumbra::reference
