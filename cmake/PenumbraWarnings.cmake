@@ -30,6 +30,9 @@ function(penumbra_add_test name)
   cmake_parse_arguments(T "" "" "LABELS;SOURCES;LIBS" ${ARGN})
   add_executable(${name} ${T_SOURCES})
   penumbra_target_defaults(${name})
+  if(PENUMBRA_TEST_COMPILE_OPTIONS)
+    target_compile_options(${name} PRIVATE ${PENUMBRA_TEST_COMPILE_OPTIONS})
+  endif()
   target_link_libraries(${name} PRIVATE ${T_LIBS} GTest::gtest GTest::gmock)
   target_compile_definitions(${name} PRIVATE
     PENUMBRA_SHADER_DIR="${PENUMBRA_SHADER_DIR}"
