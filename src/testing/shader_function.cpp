@@ -13,6 +13,8 @@
 #include <penumbra/testing/shader_function.hpp>
 #include <sstream>
 
+#include "glsl_scan.hpp"
+
 namespace penumbra::testing {
 namespace fs = std::filesystem;
 
@@ -190,13 +192,23 @@ std::string layout_signature(const TypeDesc& t) {
   return s;
 }
 
-std::string numbered(const std::string& source) {
+// The source with line numbers; with `only` given, just the lines within 3 of those (and "..."
+// where lines are left out).
+std::string numbered(const std::string& source, const std::vector<int>& only = {}) {
   std::istringstream in(source);
   std::ostringstream out;
   std::string line;
   int n = 0;
+  bool skipped = false;
   while (std::getline(in, line)) {
     ++n;
+    if (!only.empty() &&
+        std::none_of(only.begin(), only.end(), [&](int at) { return std::abs(at - n) <= 3; })) {
+      if (!skipped) out << "  ...\n";
+      skipped = true;
+      continue;
+    }
+    skipped = false;
     out << (n < 10 ? "   " : n < 100 ? "  " : " ") << n << "  " << line << "\n";
   }
   return out.str();
@@ -647,11 +659,24 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
     const bool in_wrapper = diags.empty() || diags[0].file.string() == wrapper_name ||
                             diags[0].file.filename().string() == wrapper_name;
     if (!in_wrapper) throw;  // an error in the tested file (or its includes): file:line as is
+    // What the files declare under that name and near it, against what the C++ asked for;
+    // then glslang's words, and the wrapper's lines around each error (the whole wrapper is
+    // mostly bounds-check boilerplate: PENUMBRA_DUMP_WRAPPERS=DIR writes it).
+    const std::string why = detail::explain_no_match(detail::glsl_functions(file, co.include_dirs),
+                                                     function, e->signature_);
+    std::vector<int> lines;
+    for (const auto& d : diags)
+      if (d.file.filename().string() == wrapper_name) lines.push_back(d.line);
     throw shader::CompileError(
         "ShaderFunction " + e->signature_ + " from " + file.string() +
             ": the generated wrapper does not compile; does the C++ signature match the GLSL "
             "function?\n" +
-            err.what() + "\n--- generated wrapper ---\n" + numbered(e->source_),
+            (why.empty() ? "  " + file.string() + " declares no function named '" + function +
+                               "' or near it\n"
+                         : why) +
+            err.what() + "\n--- generated wrapper (" + wrapper_name +
+            ", the lines around each error; PENUMBRA_DUMP_WRAPPERS=DIR writes it whole) ---\n" +
+            numbered(e->source_, lines),
         diags);
   }
 

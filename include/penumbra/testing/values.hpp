@@ -522,7 +522,7 @@ void PrintTo(const mat<C, R, T, Q>& value, std::ostream* os) {
 }  // namespace glm
 
 // Describes a C++ struct to the harness, once, at global namespace scope (it specializes
-// penumbra::testing::GlslStruct<CppType>). Up to 16 fields, in declaration order; each field's
+// penumbra::testing::GlslStruct<CppType>). Up to 256 fields, in declaration order; each field's
 // C++ name is also its GLSL name:
 //   struct Light { glm::vec3 dir; float intensity; };
 //   PENUMBRA_GLSL_STRUCT(Light, "Light", dir, intensity);
@@ -540,30 +540,25 @@ void PrintTo(const mat<C, R, T, Q>& value, std::ostream* os) {
 #member, &Type::member            \
   }
 
-#define PENUMBRA_DETAIL_FE_1(m, a) m(a)
-#define PENUMBRA_DETAIL_FE_2(m, a, ...) m(a), PENUMBRA_DETAIL_FE_1(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_3(m, a, ...) m(a), PENUMBRA_DETAIL_FE_2(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_4(m, a, ...) m(a), PENUMBRA_DETAIL_FE_3(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_5(m, a, ...) m(a), PENUMBRA_DETAIL_FE_4(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_6(m, a, ...) m(a), PENUMBRA_DETAIL_FE_5(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_7(m, a, ...) m(a), PENUMBRA_DETAIL_FE_6(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_8(m, a, ...) m(a), PENUMBRA_DETAIL_FE_7(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_9(m, a, ...) m(a), PENUMBRA_DETAIL_FE_8(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_10(m, a, ...) m(a), PENUMBRA_DETAIL_FE_9(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_11(m, a, ...) m(a), PENUMBRA_DETAIL_FE_10(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_12(m, a, ...) m(a), PENUMBRA_DETAIL_FE_11(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_13(m, a, ...) m(a), PENUMBRA_DETAIL_FE_12(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_14(m, a, ...) m(a), PENUMBRA_DETAIL_FE_13(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_15(m, a, ...) m(a), PENUMBRA_DETAIL_FE_14(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_16(m, a, ...) m(a), PENUMBRA_DETAIL_FE_15(m, __VA_ARGS__)
-#define PENUMBRA_DETAIL_FE_PICK(_1, _2, _3, _4, _5, _6, _7, _8, _9, _10, _11, _12, _13, _14, _15, \
-                                _16, name, ...)                                                   \
-  name
-#define PENUMBRA_DETAIL_FOR_EACH(m, ...)                                                       \
-  PENUMBRA_DETAIL_FE_PICK(__VA_ARGS__, PENUMBRA_DETAIL_FE_16, PENUMBRA_DETAIL_FE_15,           \
-                          PENUMBRA_DETAIL_FE_14, PENUMBRA_DETAIL_FE_13, PENUMBRA_DETAIL_FE_12, \
-                          PENUMBRA_DETAIL_FE_11, PENUMBRA_DETAIL_FE_10, PENUMBRA_DETAIL_FE_9,  \
-                          PENUMBRA_DETAIL_FE_8, PENUMBRA_DETAIL_FE_7, PENUMBRA_DETAIL_FE_6,    \
-                          PENUMBRA_DETAIL_FE_5, PENUMBRA_DETAIL_FE_4, PENUMBRA_DETAIL_FE_3,    \
-                          PENUMBRA_DETAIL_FE_2, PENUMBRA_DETAIL_FE_1, unused)                  \
-  (m, __VA_ARGS__)
+// m(a), m(b), ... for up to 256 arguments: C++20's __VA_OPT__ ends the recursion, and each
+// PENUMBRA_DETAIL_EXPAND level rescans the text (4 nested 4 times: 256 rescans) so the deferred
+// PENUMBRA_DETAIL_FE_AGAIN expands once per argument.
+#define PENUMBRA_DETAIL_PARENS ()
+#define PENUMBRA_DETAIL_EXPAND(...) \
+  PENUMBRA_DETAIL_EXPAND4(          \
+      PENUMBRA_DETAIL_EXPAND4(PENUMBRA_DETAIL_EXPAND4(PENUMBRA_DETAIL_EXPAND4(__VA_ARGS__))))
+#define PENUMBRA_DETAIL_EXPAND4(...) \
+  PENUMBRA_DETAIL_EXPAND3(           \
+      PENUMBRA_DETAIL_EXPAND3(PENUMBRA_DETAIL_EXPAND3(PENUMBRA_DETAIL_EXPAND3(__VA_ARGS__))))
+#define PENUMBRA_DETAIL_EXPAND3(...) \
+  PENUMBRA_DETAIL_EXPAND2(           \
+      PENUMBRA_DETAIL_EXPAND2(PENUMBRA_DETAIL_EXPAND2(PENUMBRA_DETAIL_EXPAND2(__VA_ARGS__))))
+#define PENUMBRA_DETAIL_EXPAND2(...) \
+  PENUMBRA_DETAIL_EXPAND1(           \
+      PENUMBRA_DETAIL_EXPAND1(PENUMBRA_DETAIL_EXPAND1(PENUMBRA_DETAIL_EXPAND1(__VA_ARGS__))))
+#define PENUMBRA_DETAIL_EXPAND1(...) __VA_ARGS__
+#define PENUMBRA_DETAIL_FOR_EACH(m, ...) \
+  __VA_OPT__(PENUMBRA_DETAIL_EXPAND(PENUMBRA_DETAIL_FE_STEP(m, __VA_ARGS__)))
+#define PENUMBRA_DETAIL_FE_STEP(m, a, ...) \
+  m(a) __VA_OPT__(, PENUMBRA_DETAIL_FE_AGAIN PENUMBRA_DETAIL_PARENS(m, __VA_ARGS__))
+#define PENUMBRA_DETAIL_FE_AGAIN() PENUMBRA_DETAIL_FE_STEP

@@ -13,6 +13,21 @@ struct Pair {
   bool flag;
 };
 
+// Twenty fields of mixed types (a real library's material struct has 19).
+struct Wide {
+  float f0; vec3 v1; int i2; bool b3; vec2 w4; float f5; vec4 q6; uint u7; float f8; vec3 v9;
+  float f10; int i11; vec2 w12; float f13; bool b14; vec3 v15; float f16; uint u17; vec4 q18;
+  float f19;
+};
+
+// Each field moved by d (numbers), flipped (bools) or incremented (integers).
+Wide wide_shift(Wide w, float d) {
+  w.f0 += d; w.v1 += d; w.i2 += 1; w.b3 = !w.b3; w.w4 += d; w.f5 += d; w.q6 += d; w.u7 += 1u;
+  w.f8 += d; w.v9 += d; w.f10 += d; w.i11 += 1; w.w12 += d; w.f13 += d; w.b14 = !w.b14;
+  w.v15 += d; w.f16 += d; w.u17 += 1u; w.q18 += d; w.f19 += d;
+  return w;
+}
+
 float add_mul(float a, float b, float c) { return a + b * c; }
 
 // A float then a vec3: the vec3 sits at offset 16 of the case struct.
