@@ -1,6 +1,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <penumbra/core/error.hpp>
 #include <penumbra/testing/compare.hpp>
 #include <tuple>
 
@@ -62,6 +63,17 @@ Measure measure(const Scalar& e, const Scalar& a) {
   m.abs_error = std::fabs(a.as_double() - e.as_double());
   m.ulp = static_cast<std::int64_t>(m.abs_error);
   return m;
+}
+
+// `a` moved by whole periods to the representative nearest `e` (Tolerance::period), in a's own
+// type; a unchanged when the tolerance is not periodic or either value is not finite.
+Scalar wrapped(const Tolerance& tol, const Scalar& e, const Scalar& a) {
+  if (!(tol.period > 0.0) || !e.is_floating() || !a.is_floating()) return a;
+  const double ev = e.as_double(), av = a.as_double();
+  if (!std::isfinite(ev) || !std::isfinite(av)) return a;
+  const double shifted = av - tol.period * std::round((av - ev) / tol.period);
+  return a.kind == Scalar::Kind::f32 ? Scalar::of(static_cast<float>(shifted))
+                                     : Scalar::of(shifted);
 }
 
 bool passes(const Tolerance& tol, const Scalar& e, const Scalar& a, const Measure& m) {
@@ -143,6 +155,15 @@ Tolerance Tolerance::with_floor(double value) const {
   return t;
 }
 
+Tolerance Tolerance::modulo(double value) const {
+  if (!(value > 0.0) || !std::isfinite(value))
+    throw Error("Tolerance::modulo(" + format_number(value, 17) +
+                "): the period must be > 0 and finite");
+  Tolerance t = *this;
+  t.period = value;
+  return t;
+}
+
 bool Tolerance::accepts(double expected, double actual, std::int64_t ulp_dist) const {
   const bool nan_e = std::isnan(expected);
   const bool nan_a = std::isnan(actual);
@@ -154,6 +175,8 @@ bool Tolerance::accepts(double expected, double actual, std::int64_t ulp_dist) c
 }
 
 bool Tolerance::accepts(double expected, double actual) const {
+  if (period > 0.0 && std::isfinite(expected) && std::isfinite(actual))
+    actual -= period * std::round((actual - expected) / period);
   constexpr double kFloatMax = std::numeric_limits<float>::max();
   std::int64_t ulp_dist = kNoUlp;
   // Out-of-range doubles have no float ULP distance (and converting them would be undefined).
@@ -164,8 +187,9 @@ bool Tolerance::accepts(double expected, double actual) const {
 }
 
 bool Tolerance::accepts(const Scalar& expected, const Scalar& actual) const {
-  const Measure m = measure(expected, actual);
-  return passes(*this, expected, actual, m);
+  const Scalar a = wrapped(*this, expected, actual);
+  const Measure m = measure(expected, a);
+  return passes(*this, expected, a, m);
 }
 
 std::string Tolerance::describe() const {
@@ -178,7 +202,9 @@ std::string Tolerance::describe() const {
   if (rel > 0) add("|error| <= " + format_number(rel, 6) + " * |expected|");
   if (ulp >= 0) add("<= " + std::to_string(ulp) + " ULP");
   if (floor > 0) add("|error| <= " + format_number(floor, 6) + " (near-zero floor)");
-  return out.empty() ? std::string("exact") : out;
+  if (out.empty()) out = "exact";
+  if (period > 0) out += " (modulo " + format_number(period, 6) + ")";
+  return out;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -234,7 +260,9 @@ thread_local std::vector<std::vector<std::string>> g_last_run_printf;
 void set_last_run_printf(const std::vector<std::vector<std::string>>& per_case) {
   g_last_run_printf = per_case;
 }
-const std::vector<std::vector<std::string>>& last_run_printf() { return g_last_run_printf; }
+const std::vector<std::vector<std::string>>& last_run_printf() {
+  return g_last_run_printf;
+}
 
 namespace detail {
 
@@ -281,8 +309,9 @@ void BatchComparer::component(std::size_t case_index, std::string_view name, con
                               const Scalar& actual) {
   State& s = *state_;
   ComparisonResult& r = s.result;
-  const Measure m = measure(expected, actual);
-  const bool ok = passes(s.tol, expected, actual, m);
+  const Scalar a = wrapped(s.tol, expected, actual);
+  const Measure m = measure(expected, a);
+  const bool ok = passes(s.tol, expected, a, m);
   ++r.components;
 
   const std::size_t bin = ErrorHistogram::bin_of(m.ulp, m.mismatch);

@@ -222,6 +222,14 @@ TEST_F(HarnessTest, AStructOfTwentyFieldsRoundTrips) {
   EXPECT_EQ(glsl_type<Wide>()->members.size(), 20u);
 }
 
+// Macros are tested like functions: the wrapper writes the call as text.
+TEST_F(HarnessTest, FunctionLikeMacrosAndMacroTypes) {
+  ShaderFunction<float(float)> twice(kFuncs, "TWICE");
+  EXPECT_EQ(twice(1.25f), 2.5f);
+  ShaderFunction<float(float)> halve(kFuncs, "halve");
+  EXPECT_EQ(halve(3.0f), 1.5f);
+}
+
 TEST_F(HarnessTest, ArraysOfScalarsVectorsAndStructs) {
   ShaderFunction<float(std::array<float, 4>)> s4(kFuncs, "sum4");
   EXPECT_EQ(s4(std::array<float, 4>{1, 2, 3, 4}), 10.0f);
@@ -330,7 +338,7 @@ TEST_F(HarnessTest, AFileWithItsOwnVersionIsTestedWithANote) {
 // (file:line: the GLSL signature) against what was asked for; a misspelled name lists the near
 // names; the wrapper is shown only around the error, not its few hundred lines of boilerplate.
 TEST_F(HarnessTest, SignatureMismatchExplainsAndShowsTheWrapper) {
-  const std::string declared = kFuncs.string() + ":41: bool is_positive(float x)";
+  const std::string declared = kFuncs.string() + ":46: bool is_positive(float x)";
   const auto message = [](auto make) -> std::string {
     try {
       make();

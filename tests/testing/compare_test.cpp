@@ -2,6 +2,8 @@
 #include <gtest/gtest-spi.h>
 #include <gtest/gtest.h>
 
+#include <penumbra/core/error.hpp>
+
 #include <cmath>
 #include <cstdint>
 #include <glm/glm.hpp>
@@ -346,6 +348,39 @@ TEST(NearTo, DescribesAndExplains) {
   EXPECT_NONFATAL_FAILURE(
       EXPECT_THAT(glm::vec3(1, 2.5f, 3), matcher),
       "Actual: vec3(1, 2.5, 3), which differs at y: expected 2 (0x1p+1), actual 2.5 (0x1.4p+1)");
+}
+
+}  // namespace
+
+namespace {
+
+using penumbra::testing::Tolerance;
+
+// A periodic value (a hash's fract) compared modulo its period: 0.9999 and 0.0001 are 0.0002
+// apart; half a period apart is as far as it gets.
+TEST(Tolerance, ModuloComparesPeriodicValuesAcrossTheWrap) {
+  const Tolerance plain = Tolerance::absolute(1e-3);
+  const Tolerance periodic = plain.modulo(1.0);
+  EXPECT_FALSE(plain.accepts(0.9999, 0.0001));
+  EXPECT_TRUE(periodic.accepts(0.9999, 0.0001));
+  EXPECT_TRUE(periodic.accepts(0.0001, 0.9999));
+  EXPECT_TRUE(periodic.accepts(0.25, 3.2502)) << "any number of periods away";
+  EXPECT_FALSE(periodic.accepts(0.25, 0.75));
+  EXPECT_FALSE(periodic.accepts(0.9999, 0.0101));
+  EXPECT_TRUE(Tolerance::ulps(2).modulo(1.0).accepts(penumbra::testing::Scalar::of(0.0f),
+                                                     penumbra::testing::Scalar::of(1.0f)));
+  EXPECT_THAT(periodic.describe(), ::testing::HasSubstr("(modulo 1)"));
+  EXPECT_THROW(plain.modulo(0.0), penumbra::Error);
+  EXPECT_THROW(plain.modulo(std::numeric_limits<double>::infinity()), penumbra::Error);
+  // In a batch: every case across the wrap passes, one half a period off fails.
+  std::vector<float> expected{0.9999f, 0.5f, 0.0f}, actual{0.0001f, 0.5f, 0.9995f};
+  EXPECT_TRUE(penumbra::testing::compare_batch(std::span<const float>(expected),
+                                               std::span<const float>(actual), periodic)
+                  .passed);
+  actual[1] = 0.0f;
+  EXPECT_FALSE(penumbra::testing::compare_batch(std::span<const float>(expected),
+                                                std::span<const float>(actual), periodic)
+                   .passed);
 }
 
 }  // namespace

@@ -258,3 +258,27 @@ TEST(DepthExtremes, OrdinaryDrawsFollowThePerspectiveMapping) {
 }
 
 }  // namespace
+
+namespace {
+
+// vec_from(): one generator per component, in order, seeded like the others.
+TEST(VecFrom, EachComponentFromItsOwnGenerator) {
+  const auto g = vec_from(uniform(0.0f, 1.0f), uniform(-10.0f, -5.0f), constant(7.0f));
+  Rng a(3), b(3);
+  for (int i = 0; i < 1000; ++i) {
+    const glm::vec3 v = g(a);
+    EXPECT_GE(v.x, 0.0f);
+    EXPECT_LE(v.x, 1.0f);
+    EXPECT_GE(v.y, -10.0f);
+    EXPECT_LE(v.y, -5.0f);
+    EXPECT_EQ(v.z, 7.0f);
+    EXPECT_EQ(v, g(b)) << "the same seed gives the same vectors";
+  }
+  const auto u = vec_from(uniform(0u, 3u), constant(9u));
+  Rng r(1);
+  const glm::uvec2 w = u(r);
+  EXPECT_LE(w.x, 3u);
+  EXPECT_EQ(w.y, 9u);
+}
+
+}  // namespace

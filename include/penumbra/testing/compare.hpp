@@ -73,11 +73,14 @@ constexpr std::int64_t ulp_distance(double a, double b) {
 //                                  where the expected value is tiny or zero).
 // An infinity only matches the same infinity. Integer and bool components compare exactly.
 // The ULP distance is measured in the component's own type (float, or double for host doubles).
+// With a period (modulo), a periodic value (a hash's fract, an angle) is compared at the
+// representative of `actual` nearest `expected`: 0.9999 and 0.0001 are 0.0002 apart modulo 1.
 struct Tolerance {
   double abs = 0.0;
   double rel = 0.0;
   std::int64_t ulp = -1;
   double floor = 0.0;
+  double period = 0.0;  // 0: not periodic
 
   static Tolerance exact() { return {}; }
   static Tolerance absolute(double abs) { return {.abs = abs}; }
@@ -89,6 +92,9 @@ struct Tolerance {
   Tolerance with_rel(double value) const;
   Tolerance with_ulp(std::int64_t value) const;
   Tolerance with_floor(double value) const;
+  // The same bounds, applied modulo `period` (> 0, finite): Tolerance::absolute(1e-6).modulo(1).
+  // Throws penumbra::Error for another period.
+  Tolerance modulo(double period) const;
 
   // For float values: the ULP distance is that of the two values rounded to float.
   bool accepts(double expected, double actual) const;

@@ -216,6 +216,33 @@ VecOf<L, std::decay_t<G>> vec_of(G&& generator) {
   return {std::forward<G>(generator)};
 }
 
+// A glm vector with a generator per component, drawn in order:
+// vec_from(uniform(0.0f, 1.0f), uniform(-1.0f, 1.0f), constant(0.0f)) gives a vec3 whose x is
+// in [0, 1], y in [-1, 1] and z is 0. The generators must produce the same scalar type.
+template <class... G>
+struct VecFrom {
+  std::tuple<G...> generators;
+  using Scalar = std::common_type_t<generator_result_t<G>...>;
+  glm::vec<sizeof...(G), Scalar> operator()(Rng& rng) const {
+    glm::vec<sizeof...(G), Scalar> v;
+    std::apply(
+        [&](const auto&... g) {
+          glm::length_t c = 0;
+          ((v[c++] = g(rng)), ...);
+        },
+        generators);
+    return v;
+  }
+};
+template <Generator... G>
+requires(
+    sizeof...(G) >= 2 && sizeof...(G) <= 4 &&
+    (std::is_same_v<generator_result_t<std::decay_t<G>>,
+                    generator_result_t<std::decay_t<std::tuple_element_t<0, std::tuple<G...>>>>> &&
+     ...)) VecFrom<std::decay_t<G>...> vec_from(G&&... generators) {
+  return {std::tuple<std::decay_t<G>...>(std::forward<G>(generators)...)};
+}
+
 // A std::array whose elements are drawn independently.
 template <std::size_t N, class G>
 struct ArrayOf {

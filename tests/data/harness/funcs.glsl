@@ -28,6 +28,11 @@ Wide wide_shift(Wide w, float d) {
   return w;
 }
 
+// A function-like macro, and a function over a macro type: the wrapper calls them as written.
+#define TWICE(x) ((x) * 2.0)
+#define REAL float
+REAL halve(REAL x) { return x * 0.5; }
+
 float add_mul(float a, float b, float c) { return a + b * c; }
 
 // A float then a vec3: the vec3 sits at offset 16 of the case struct.
