@@ -18,7 +18,7 @@ namespace fs = std::filesystem;
 
 const std::vector<std::string_view> kTopKeys{"name",     "camera",  "sun",     "spot",
                                              "point",    "shadows", "contact", "render",
-                                             "material", "object",  "scatter"};
+                                             "material", "object",  "scatter", "tune"};
 
 // The rows of the parameter table (params.hpp) that `table` holds, read into the scene with the
 // Reader's typed, range-checked accessors; then the rows' cross-key checks (unless the table's
@@ -273,6 +273,20 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
   }
   if (const toml::table* t = single_table(ctx, root, "render")) {
     read_plain_table(Reader(ctx, *t, "[render]"), "render", scene);
+  }
+  // [tune]: the budget the scene's settings were picked for (tools/penumbra-tune reads it; the
+  // renderer does not). Checked here so that a typo is an error at its line like any other key.
+  if (const toml::table* t = single_table(ctx, root, "tune")) {
+    const Reader r(ctx, *t, "[tune]");
+    r.check_keys({"budget_ms", "max_path_error", "max_flicker", "max_acne", "max_gap", "device"});
+    r.opt_number("budget_ms", ranges::kPositive);
+    for (std::string_view key : {"max_path_error", "max_flicker", "max_acne", "max_gap"})
+      r.opt_number(key, ranges::kNonNegative);
+    r.opt_string("device");
+    if (!r.has("budget_ms") && !r.has("max_path_error") && !r.has("max_flicker") &&
+        !r.has("max_acne") && !r.has("max_gap")) {
+      r.fail_at(nullptr, "[tune] names no budget: give budget_ms or a max_* (docs/tuning.md)");
+    }
   }
 
   read_geometry(ctx, root, scene);

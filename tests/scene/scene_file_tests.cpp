@@ -1002,3 +1002,26 @@ TEST(SceneFile, ScatterCountsAreBoundedAndADenseFieldStillLoads) {
 
 }  // namespace
 }  // namespace penumbra::scene
+
+namespace penumbra::scene {
+namespace {
+
+// [tune] (penumbra-tune's budget): read and checked like any table; the renderer ignores it.
+TEST(SceneErrors, TuneBudgetIsCheckedAtItsLines) {
+  EXPECT_NO_THROW(parse(kBox + "[tune]\ndevice = \"NVIDIA H200\"\nbudget_ms = 2.3\n"
+                               "max_flicker = 0.005\nmax_acne = 0.001\n"));
+  std::string text = kBox + "[tune]\nbudget_mss = 2\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "budget_mss") + "unknown key 'budget_mss' in "
+                                                                  "[tune] (did you mean "
+                                                                  "'budget_ms'?)"));
+  text = kBox + "[tune]\nbudget_ms = -1\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "budget_ms") + "[tune] budget_ms = -1 is out "
+                                                                 "of range"));
+  text = kBox + "[tune]\nmax_gap = -0.5\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "max_gap") + "[tune] max_gap = -0.5"));
+  text = kBox + "[tune]\ndevice = \"x\"\n";
+  EXPECT_THAT(error_of(text), HasSubstr("[tune] names no budget: give budget_ms or a max_*"));
+}
+
+}  // namespace
+}  // namespace penumbra::scene

@@ -181,6 +181,32 @@ r = subprocess.run([sys.executable, tune, "--scene", typo, "--out", os.path.join
                    capture_output=True, text=True, env=env)
 check(r.returncode != 0 and "typo.toml:15" in r.stderr, f"typo:\n{r.stderr}")
 
+# The scene's own [tune] budget: used without --budget-ms/--max; budget_ms only on the device
+# it names; --check-defaults fails when the defaults miss it; a typo in it is an error at its
+# line.
+budgeted = os.path.join(work, "budgeted.toml")
+with open(budgeted, "w") as f:
+    f.write(SCENE + '\n[tune]\ndevice = "NVIDIA H200"\nbudget_ms = 1\nmax_path_error = 0\n')
+r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.join(work, "b"),
+                    "--quick", "--size", "96x54", "--frames", "1", "--path-frames", "2",
+                    "--trials", "2", "--check-defaults"], capture_output=True, text=True, env=env)
+with open(os.path.join(work, "b", "tune.json")) as f:
+    measured_on = json.load(f)["device"]
+if "NVIDIA H200" not in measured_on:
+    check("budget_ms = 1 is for NVIDIA H200" in r.stdout and "only its max_* apply" in r.stdout,
+          f"[tune] budget_ms for another device:\n{r.stdout}{r.stderr}")
+check("budget (the scene's [tune]): " in r.stdout and "path_error <= 0.0" in r.stdout,
+      f"[tune] not used:\n{r.stdout}{r.stderr}")
+check(r.returncode != 0 and "the defaults miss it: path_error" in r.stdout,
+      f"--check-defaults with defaults that miss [tune]:\n{r.stdout}{r.stderr}")
+check("no measured point meets path_error <= 0.0" in r.stderr, f"[tune] impossible:\n{r.stderr}")
+with open(budgeted, "w") as f:
+    f.write(SCENE + "\n[tune]\nbudget_mss = 2\n")
+r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.join(work, "b2")],
+                   capture_output=True, text=True, env=env)
+check(r.returncode != 0 and "budgeted.toml:27" in r.stderr and "budget_mss" in r.stderr,
+      f"[tune] typo:\n{r.stderr}")
+
 # The patcher: a key replaced in place, one added to its table, a table added; nothing else.
 text = '# top\n[shadows]\nfilter = "pcf"  # old\n\n[[material]]\nname = "m"\n'
 got = scenefile.patched_text(text, {"shadows.filter": "hard", "shadows.pcf_radius": 2,
