@@ -122,7 +122,7 @@ void Ui::set(Session& session, const std::string& key, const std::string& value)
 
 void Ui::panel(Session& session) {
   ImGui::SetNextWindowPos(ImVec2(8, 8), ImGuiCond_FirstUseEver);
-  ImGui::SetNextWindowSize(ImVec2(340, 0), ImGuiCond_FirstUseEver);
+  ImGui::SetNextWindowSize(ImVec2(430, 0), ImGuiCond_FirstUseEver);
   ImGui::SetNextWindowBgAlpha(0.85f);
   if (ImGui::Begin("penumbra")) {
     const std::string error = session.error_text();
@@ -180,12 +180,35 @@ void Ui::panel(Session& session) {
           break;
       }
     };
+    // The rows this scene uses, by table; the others apart, each with the reason it does
+    // nothing here (scene::unused_reason), so the panel shows first what the scene models.
+    // Labels get 45% of the width, so the longest ("pcss min filter texels") are not cut.
+    ImGui::PushItemWidth(ImGui::GetWindowWidth() * 0.5f);
+    std::vector<std::pair<const scene::Param*, std::string>> unused;
     for (const char* table : {"render", "shadows", "sun", "contact", "camera"}) {
+      std::vector<const scene::Param*> used;
+      for (const scene::Param* p : scene::params_of(table)) {
+        if (!p->settable()) continue;
+        std::string why = scene::unused_reason(session.scene(), *p);
+        if (why.empty())
+          used.push_back(p);
+        else
+          unused.emplace_back(p, std::move(why));
+      }
+      if (used.empty()) continue;
       const bool open = std::string_view(table) != "camera";
       if (!ImGui::CollapsingHeader(table, open ? ImGuiTreeNodeFlags_DefaultOpen : 0)) continue;
-      for (const scene::Param* p : scene::params_of(table))
-        if (p->settable()) widget(*p);
+      for (const scene::Param* p : used) widget(*p);
     }
+    const std::string apart = "not used by this scene (" + std::to_string(unused.size()) + ")";
+    if (!unused.empty() && ImGui::CollapsingHeader(apart.c_str())) {
+      for (const auto& [p, why] : unused) {
+        widget(*p);
+        ImGui::SameLine();
+        ImGui::TextDisabled("(%s)", why.c_str());
+      }
+    }
+    ImGui::PopItemWidth();
     if (ImGui::CollapsingHeader("every parameter (Enter applies)")) {
       for (const std::string& key : Session::keys()) {
         char text[128];

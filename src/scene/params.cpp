@@ -435,8 +435,8 @@ std::vector<Param> make_params() {
        A::file_only, "pixels (headless; `--size` and the window override it)"},
       {"render.height", T::integer, closed(16, 16384), field<&S::render, &RenderSettings::height>(),
        A::file_only, "pixels"},
-      {"render.frames", T::integer, closed(1, 10000),
-       field<&S::render, &RenderSettings::frames>(), A::file_only,
+      {"render.frames", T::integer, closed(1, 10000), field<&S::render, &RenderSettings::frames>(),
+       A::file_only,
        "frames to render headless, for the timings' medians (`--frames` overrides it)"},
       {"render.view", T::choice, kAny, field<&S::render, &RenderSettings::view>(), A::frame,
        "what the image shows: the lit image or a debug view", views},
@@ -748,6 +748,57 @@ std::string camera_violation(const Scene& scene) {
   if (!(c.far > c.near))
     return "camera.far = " + number_text(c.far) +
            " must be greater than near = " + number_text(c.near);
+  return "";
+}
+
+std::string unused_reason(const Scene& scene, const Param& p) {
+  const std::string_view table = p.table(), name = p.name();
+  if (table == "camera" || table == "render") return "";
+  if (table == "sun") return scene.sun ? "" : "no sun";
+  if (table == "contact") {
+    return name == "steps" || scene.contact.step_count > 0 ? "" : "contact steps is 0";
+  }
+  // [shadows]: what the shadowed lights use. The sun's map rows need a shadowed sun; a filter's
+  // rows need a light whose filter (its own, or shadows.filter) it is.
+  const bool sun = scene.sun && scene.sun->shadows;
+  std::vector<Filter> filters;
+  if (sun) filters.push_back(scene.shadows.filter);
+  for (const SpotLight& l : scene.spots)
+    if (l.shadows) filters.push_back(l.filter.value_or(scene.shadows.filter));
+  for (const PointLight& l : scene.points)
+    if (l.shadows) filters.push_back(l.filter.value_or(scene.shadows.filter));
+  if (filters.empty()) return "no shadowed light";
+  const auto uses = [&](Filter f) {
+    return std::find(filters.begin(), filters.end(), f) != filters.end();
+  };
+  const auto none_uses = [](std::string_view what) { return "no light uses " + std::string(what); };
+  // frame_pack.cpp's pack_sun: the sun's map alone (max_distance also fits point lights to
+  // the camera, reverse_z every map's depth).
+  static const std::vector<std::string_view> sun_rows{
+      "cascades",       "lambda",         "resolution",     "fit",        "selection", "layout",
+      "clipmap_levels", "clipmap_extent", "snap_to_texels", "blend_band", "fade_band"};
+  const bool sun_row = std::find(sun_rows.begin(), sun_rows.end(), name) != sun_rows.end();
+  if (sun_row && !sun) return scene.sun ? "the sun casts no shadows" : "no sun";
+  if (name == "filter" && !sun &&
+      std::none_of(scene.spots.begin(), scene.spots.end(),
+                   [](const SpotLight& l) { return l.shadows && !l.filter; }) &&
+      std::none_of(scene.points.begin(), scene.points.end(),
+                   [](const PointLight& l) { return l.shadows && !l.filter; }))
+    return "every shadowed light has a filter of its own";
+  const bool clipmap = scene.shadows.layout == ShadowLayout::clipmap;
+  if ((name == "clipmap_levels" || name == "clipmap_extent") && !clipmap)
+    return "layout is cascades";
+  if ((name == "cascades" || name == "lambda" || name == "fit" || name == "selection" ||
+       name == "blend_band") &&
+      clipmap)
+    return "layout is clipmap";
+  if (name.starts_with("pcss_") && !uses(Filter::pcss)) return none_uses("pcss");
+  if (name == "poisson_taps" && !uses(Filter::poisson)) return none_uses("poisson");
+  if ((name == "pcf_radius" || name == "constant_filter_width") && !uses(Filter::pcf) &&
+      !uses(Filter::poisson))
+    return none_uses("pcf or poisson");
+  if (name.starts_with("evsm_") && !uses(Filter::evsm2)) return none_uses("evsm2");
+  if (name == "temporal_weight" && !scene.shadows.temporal) return "temporal is off";
   return "";
 }
 

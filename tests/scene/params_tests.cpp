@@ -282,3 +282,45 @@ TEST(Params, ChoicesAreTheEnumsNames) {
 
 }  // namespace
 }  // namespace penumbra::scene
+
+namespace penumbra::scene {
+namespace {
+
+// The rows a scene does not use, and why: what the panel lists apart.
+TEST(Params, UnusedRowsSayWhyForEachShippedScene) {
+  const auto reason = [](const Scene& s, std::string_view key) {
+    return unused_reason(s, param(key));
+  };
+  const Scene indoor = load_scene(find_scene("indoor"));  // a spot and a point light, no sun
+  EXPECT_EQ(reason(indoor, "sun.intensity"), "no sun");
+  EXPECT_EQ(reason(indoor, "shadows.cascades"), "no sun");
+  EXPECT_EQ(reason(indoor, "shadows.pcss_search_texels"), "no light uses pcss");
+  EXPECT_EQ(reason(indoor, "shadows.normal_offset_texels"), "");
+  EXPECT_EQ(reason(indoor, "shadows.max_distance"), "") << "it fits point lights too";
+  EXPECT_EQ(reason(indoor, "camera.fov_y"), "");
+
+  const Scene def = load_scene(find_scene("default"));  // hard sun, cascades, temporal off
+  EXPECT_EQ(reason(def, "shadows.cascades"), "");
+  EXPECT_EQ(reason(def, "shadows.clipmap_levels"), "layout is cascades");
+  EXPECT_EQ(reason(def, "shadows.pcf_radius"), "no light uses pcf or poisson");
+  EXPECT_EQ(reason(def, "shadows.evsm_blur"), "no light uses evsm2");
+  EXPECT_EQ(reason(def, "shadows.temporal_weight"), "temporal is off");
+  EXPECT_EQ(reason(def, "contact.thickness"), "");
+
+  const Scene grazing = load_scene(find_scene("grazing"));  // pcss, temporal, contact off
+  EXPECT_EQ(reason(grazing, "shadows.pcss_quality"), "");
+  EXPECT_EQ(reason(grazing, "shadows.temporal_weight"), "");
+  EXPECT_EQ(reason(grazing, "contact.thickness"), "contact steps is 0");
+  EXPECT_EQ(reason(grazing, "contact.steps"), "") << "the row that turns the pass on";
+
+  Scene clip = def;
+  set_param(clip, "shadows.layout", "clipmap");
+  EXPECT_EQ(reason(clip, "shadows.clipmap_levels"), "");
+  EXPECT_EQ(reason(clip, "shadows.lambda"), "layout is clipmap");
+  set_param(clip, "sun.shadows", "false");
+  EXPECT_EQ(reason(clip, "shadows.resolution"), "no shadowed light");
+  EXPECT_EQ(reason(clip, "shadows.constant_bias"), "no shadowed light");
+}
+
+}  // namespace
+}  // namespace penumbra::scene

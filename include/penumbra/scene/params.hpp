@@ -135,6 +135,11 @@ void set_param(Scene& scene, std::string_view key, std::string_view text);
 std::pair<std::string, std::string> split_set_flag(std::string_view value);
 void set_params(Scene& scene, const std::vector<std::pair<std::string, std::string>>& sets);
 
+// Why a row does nothing for this scene as it is now, or "" when it matters: "no sun", "no
+// shadowed light", "no light uses pcss", "layout is cascades", "temporal is off", "contact
+// steps is 0". The panel lists such rows apart, so it shows first what the scene models.
+std::string unused_reason(const Scene& scene, const Param& p);
+
 // The constraints of [camera] across keys ("" when they hold): target != position, up not
 // parallel to the view, far > near. The scene file and set_param both use it.
 std::string camera_violation(const Scene& scene);
