@@ -18,6 +18,7 @@
 #include <cstdint>
 #include <memory>
 #include <numbers>
+#include <penumbra/shadow/types.hpp>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/generators.hpp>
 #include <penumbra/testing/gpu_test.hpp>
@@ -105,6 +106,18 @@ class PcfTest : public GpuTest {
     return out;
   }
 };
+
+// The filters' limits the host uses (shadow::kPcfMaxRadius and kPcfMaxPoissonTaps: the parameter
+// table's ranges, a filter's reach) are the GLSL's own, read through macros the wrapper expands
+// after pcf.glsl is included.
+TEST_F(PcfTest, TheHostsFilterLimitsAreTheShadersConstants) {
+  FunctionOptions o;
+  o.prelude = "#define PCF_MAX_RADIUS() kPcfMaxRadius\n#define PCF_MAX_TAPS() kPcfMaxPoissonTaps\n";
+  ShaderFunction<int32_t()> radius("penumbra/pcf.glsl", "PCF_MAX_RADIUS", o);
+  ShaderFunction<int32_t()> taps("penumbra/pcf.glsl", "PCF_MAX_TAPS", o);
+  EXPECT_EQ(radius(), shadow::kPcfMaxRadius);
+  EXPECT_EQ(taps(), shadow::kPcfMaxPoissonTaps);
+}
 
 using GridFn = ShaderFunction<float(Sampler2DShadow, glm::vec3, int32_t, glm::vec2)>;
 using GridArrayFn =

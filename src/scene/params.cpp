@@ -250,7 +250,7 @@ std::vector<Param> make_params() {
       {"shadows.snap_to_texels", T::boolean, kAny,
        field<&S::shadows, &ShadowSettings::snap_to_texels>(), A::frame,
        "cascades move by whole texels, so static edges do not shimmer; off only to compare"},
-      {"shadows.pcf_radius", T::integer, closed(0, 5),
+      {"shadows.pcf_radius", T::integer, closed(0, shadow::kPcfMaxRadius),
        field<&S::shadows, &ShadowSettings::pcf_radius>(), A::frame,
        "texels: the box filter is (2 `pcf_radius` + 1) texels wide (`kPcfMaxRadius` = 5 in "
        "pcf.glsl)"},
@@ -258,7 +258,7 @@ std::vector<Param> make_params() {
        field<&S::shadows, &ShadowSettings::constant_filter_width>(), A::frame,
        "`pcf` and `poisson` keep their width in metres across cascades: a Poisson disk of "
        "(`pcf_radius` + 0.5) texels of cascade 0, so the penumbra does not widen at each split"},
-      {"shadows.poisson_taps", T::integer, closed(1, 32),
+      {"shadows.poisson_taps", T::integer, closed(1, shadow::kPcfMaxPoissonTaps),
        field<&S::shadows, &ShadowSettings::poisson_taps>(), A::frame,
        "taps of the `poisson` filter (its radius is `pcf_radius` + 0.5 texels)"},
       {"shadows.pcss_quality",

@@ -170,7 +170,7 @@ int Scene::mask_image_index(std::uint32_t material,
 }
 
 int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube) {
-  const int r = std::clamp(shadows.pcf_radius, 0, 5);  // pcf_clamp_radius
+  const int r = std::clamp(shadows.pcf_radius, 0, shadow::kPcfMaxRadius);  // pcf_clamp_radius
   const int tier = std::clamp(shadows.pcss_quality, 0, 2);
   switch (filter) {
     case Filter::hard:
@@ -178,7 +178,7 @@ int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool 
     case Filter::pcf:
       return cube ? (2 * r + 1) * (2 * r + 1) : (r + 1) * (r + 1);
     case Filter::poisson:
-      return int(std::clamp(shadows.poisson_taps, 1u, 32u));
+      return int(std::clamp(shadows.poisson_taps, 1u, std::uint32_t(shadow::kPcfMaxPoissonTaps)));
     case Filter::pcss:
       return (8 << tier) + (16 << tier);  // pcss_search_tap_count + pcss_filter_tap_count
     case Filter::evsm2:
@@ -192,7 +192,7 @@ double filter_reach_texels(Filter filter, const ShadowSettings& shadows) {
     case Filter::hard:
       return 1.0;
     case Filter::pcf:
-      return double(std::clamp(shadows.pcf_radius, 0, 5)) + 1.0;
+      return double(std::clamp(shadows.pcf_radius, 0, shadow::kPcfMaxRadius)) + 1.0;
     case Filter::poisson:
       return std::ceil(std::max(1.0, double(shadows.pcf_radius) + 0.5)) + 1.0;
     case Filter::pcss:

@@ -13,6 +13,12 @@ namespace penumbra::shadow {
 // The maximum number of cascades (or clipmap levels) of one directional light.
 inline constexpr std::uint32_t kMaxCascades = 8;
 
+// The filters' limits, as pcf.glsl declares them (kPcfMaxRadius, kPcfMaxPoissonTaps): the
+// parameter table's ranges and the host's filter arithmetic use these; shader_tests/pcf_tests
+// checks them against the GLSL's own constants.
+inline constexpr int kPcfMaxRadius = 5;
+inline constexpr int kPcfMaxPoissonTaps = 32;
+
 // How a [near, far] range maps to Vulkan's [0, 1] depth (penumbra/core/depth.hpp).
 using DepthConvention = penumbra::DepthConvention;
 
