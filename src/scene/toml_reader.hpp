@@ -16,6 +16,7 @@
 #include <limits>
 #include <optional>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/text.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
@@ -71,22 +72,7 @@ inline std::string type_name(const toml::node& node) {
   }
 }
 
-// Optimal string alignment distance (Levenshtein with adjacent transpositions).
-inline std::size_t edit_distance(std::string_view a, std::string_view b) {
-  std::vector<std::vector<std::size_t>> d(a.size() + 1, std::vector<std::size_t>(b.size() + 1));
-  for (std::size_t i = 0; i <= a.size(); ++i) d[i][0] = i;
-  for (std::size_t j = 0; j <= b.size(); ++j) d[0][j] = j;
-  for (std::size_t i = 1; i <= a.size(); ++i) {
-    for (std::size_t j = 1; j <= b.size(); ++j) {
-      const std::size_t cost = a[i - 1] == b[j - 1] ? 0 : 1;
-      d[i][j] = std::min({d[i - 1][j] + 1, d[i][j - 1] + 1, d[i - 1][j - 1] + cost});
-      if (i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1]) {
-        d[i][j] = std::min(d[i][j], d[i - 2][j - 2] + 1);
-      }
-    }
-  }
-  return d[a.size()][b.size()];
-}
+using penumbra::edit_distance;  // penumbra/core/text.hpp
 
 // " (did you mean 'color'?)" for the closest candidate, or "" when none is close.
 inline std::string did_you_mean(std::string_view word,

@@ -65,13 +65,17 @@ Measure measure(const Scalar& e, const Scalar& a) {
   return m;
 }
 
-// `a` moved by whole periods to the representative nearest `e` (Tolerance::period), in a's own
-// type; a unchanged when the tolerance is not periodic or either value is not finite.
+// actual moved by whole periods to the representative nearest expected (Tolerance::period);
+// unchanged when the tolerance is not periodic or either value is not finite.
+double nearest_representative(double period, double expected, double actual) {
+  if (!(period > 0.0) || !std::isfinite(expected) || !std::isfinite(actual)) return actual;
+  return actual - period * std::round((actual - expected) / period);
+}
+
+// The same for a component, in a's own type (integers and bools unchanged).
 Scalar wrapped(const Tolerance& tol, const Scalar& e, const Scalar& a) {
   if (!(tol.period > 0.0) || !e.is_floating() || !a.is_floating()) return a;
-  const double ev = e.as_double(), av = a.as_double();
-  if (!std::isfinite(ev) || !std::isfinite(av)) return a;
-  const double shifted = av - tol.period * std::round((av - ev) / tol.period);
+  const double shifted = nearest_representative(tol.period, e.as_double(), a.as_double());
   return a.kind == Scalar::Kind::f32 ? Scalar::of(static_cast<float>(shifted))
                                      : Scalar::of(shifted);
 }
@@ -175,8 +179,7 @@ bool Tolerance::accepts(double expected, double actual, std::int64_t ulp_dist) c
 }
 
 bool Tolerance::accepts(double expected, double actual) const {
-  if (period > 0.0 && std::isfinite(expected) && std::isfinite(actual))
-    actual -= period * std::round((actual - expected) / period);
+  actual = nearest_representative(period, expected, actual);
   constexpr double kFloatMax = std::numeric_limits<float>::max();
   std::int64_t ulp_dist = kNoUlp;
   // Out-of-range doubles have no float ULP distance (and converting them would be undefined).

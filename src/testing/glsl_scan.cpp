@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <fstream>
+#include <penumbra/core/text.hpp>
 #include <set>
 #include <sstream>
 
@@ -130,21 +131,6 @@ void scan(const fs::path& file, const std::vector<fs::path>& dirs, std::set<fs::
   }
 }
 
-size_t edit_distance(const std::string& a, const std::string& b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t up = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = up;
-    }
-  }
-  return row[b.size()];
-}
-
 std::string lower(std::string s) {
   for (char& c : s) c = char(std::tolower(static_cast<unsigned char>(c)));
   return s;
@@ -168,7 +154,7 @@ std::string explain_no_match(const std::vector<GlslFunction>& declared, const st
         "    " + f.file.string() + ":" + std::to_string(f.line) + ": " + f.signature + "\n";
     if (f.name == name) {
       same += entry;
-    } else if (edit_distance(f.name, name) <= 2 || lower(f.name) == lower(name)) {
+    } else if (penumbra::edit_distance(f.name, name) <= 2 || lower(f.name) == lower(name)) {
       near += entry;
     }
   }
