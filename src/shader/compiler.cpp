@@ -813,6 +813,8 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
     direct.add_field(options_.optimize ? "opt" : "noopt");
     direct.add_field(options_.strip_include_version ? "strip-version" : "keep-version");
     direct.add_field(options_.include_once ? "once" : "every");
+    direct.add_field(options_.debug_info ? "debug-info" : "no-debug-info");
+    direct.add_field(options_.keep_uncalled ? "keep-uncalled" : "drop-uncalled");
     direct.add_field(define_text);
     direct.add_field(main_name);
     direct.add_field(main_path ? main_path->string() : std::string());
@@ -854,6 +856,8 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   hash.add_field(to_string(stage));
   hash.add_field(options_.optimize ? "opt" : "noopt");
   hash.add_field(options_.include_once ? "once" : "every");
+  hash.add_field(options_.debug_info ? "debug-info" : "no-debug-info");
+  hash.add_field(options_.keep_uncalled ? "keep-uncalled" : "drop-uncalled");
   hash.add_field(define_text);
   hash.add_field(preprocessed);
 
@@ -879,17 +883,19 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
   // so that every diagnostic carries its own file and line.
   ShaderSetup setup(language, main_text, main_name, preamble);
   Includer includer(sources, include_dirs, options_);
-  if (!setup.shader.parse(GetDefaultResources(), kDefaultVersion, false, kMessages, includer)) {
+  const EShMessages messages =
+      options_.keep_uncalled ? static_cast<EShMessages>(kMessages | EShMsgKeepUncalled) : kMessages;
+  if (!setup.shader.parse(GetDefaultResources(), kDefaultVersion, false, messages, includer)) {
     throw_compile_error(setup.shader.getInfoLog(), sources, "compilation");
   }
   glslang::TProgram program;
   program.addShader(&setup.shader);
-  if (!program.link(kMessages)) {
+  if (!program.link(messages)) {
     throw_compile_error(program.getInfoLog(), sources, "linking");
   }
 
   glslang::SpvOptions spv_options;
-  spv_options.generateDebugInfo = false;
+  spv_options.generateDebugInfo = options_.debug_info;
   spv_options.disableOptimizer = !options_.optimize;
   spv_options.optimizeSize = false;
   spv::SpvBuildLogger logger;

@@ -9,10 +9,12 @@
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
 #include <penumbra/shader/reflection.hpp>
+#include <penumbra/testing/coverage.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <sstream>
 
+#include "coverage_spirv.hpp"
 #include "glsl_scan.hpp"
 
 namespace penumbra::testing {
@@ -467,6 +469,10 @@ struct FunctionEngine::Impl {
   std::unique_ptr<gpu::CommandRecorder> recorder;
   gpu::Buffer in, out;
   gpu::Buffer bounds;  // PenumbraBounds (check_bounds)
+  // GLSL coverage (PENUMBRA_COVERAGE): the counters' meaning, their buffer and binding.
+  std::unique_ptr<detail::CoverageMap> coverage;
+  gpu::Buffer counters;
+  uint32_t coverage_binding = 0;
   bool said_no_printf = false;
   uint32_t workgroup = 64;
   std::mutex mutex;
@@ -584,8 +590,9 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
          "results[]; } penumbra_out;\n";
   src << resources.str();
   src << "layout(push_constant) uniform PenumbraPush { uint count; uint base; } penumbra_pc;\n\n";
+  // One return at the end: coverage (PENUMBRA_COVERAGE) stores its counters there.
   src << "void main() {\n";
-  src << "  if (gl_GlobalInvocationID.x >= penumbra_pc.count) return;\n";
+  src << "  if (gl_GlobalInvocationID.x < penumbra_pc.count) {\n";
   src << "  uint i = penumbra_pc.base + gl_GlobalInvocationID.x;\n";
   if (options.check_bounds) src << "  penumbra_case = i;\n";
   src << "  PenumbraIn c = penumbra_in.cases[i];\n";
@@ -593,6 +600,7 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   src << "  " << (return_type ? "penumbra_out.results[i].ret = " : "") << function << "("
       << call.str() << ");\n";
   src << post.str();
+  src << "  }\n";
   src << "}\n";
 
   std::string key = src.str();
@@ -649,6 +657,11 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   co.disk_cache_dir = shader::default_disk_cache_dir();
   co.strip_include_version = options.strip_include_version;
   co.include_once = options.include_once;
+  // Coverage: lines to map the counters to, and every function of the tested files, called or
+  // not, so that what no test runs is counted as not run.
+  const bool coverage = coverage_directory().has_value();
+  co.debug_info = coverage;
+  co.keep_uncalled = coverage;
   shader::Compiler compiler(co);
   const std::string wrapper_name = "penumbra-wrapper(" + function + ").comp";
   shader::CompiledShader compiled;
@@ -733,13 +746,25 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
         {bounds_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1, VK_SHADER_STAGE_COMPUTE_BIT});
     impl->bounds = gpu::Buffer(ctx, kBoundsBytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
   }
+  std::vector<uint32_t> spirv = std::move(compiled.spirv);
+  if (coverage) {
+    impl->coverage_binding = uint32_t(bounds_binding + (options.check_bounds ? 1 : 0));
+    detail::InstrumentedSpirv inst = detail::instrument_for_coverage(
+        spirv, 0, impl->coverage_binding, [&](std::string_view name) {
+          // The tested files (canonical paths), never the generated wrapper.
+          return name != wrapper_name && !name.empty() && name.front() == '/';
+        });
+    spirv = std::move(inst.spirv);
+    impl->coverage = std::make_unique<detail::CoverageMap>(std::move(inst.map));
+    bindings.push_back({impl->coverage_binding, VK_DESCRIPTOR_TYPE_STORAGE_BUFFER, 1,
+                        VK_SHADER_STAGE_COMPUTE_BIT});
+  }
   impl->layout = std::make_unique<gpu::PipelineLayout>(
       impl->ctx, std::vector<std::vector<gpu::BindingDesc>>{bindings}, 8u,
       VkShaderStageFlags{VK_SHADER_STAGE_COMPUTE_BIT});
   gpu::Specialization spec;
   for (const auto& s : options.spec_constants) spec.set<uint32_t>(s.id, s.bits);
-  impl->pipeline =
-      std::make_unique<gpu::ComputePipeline>(impl->ctx, compiled.spirv, *impl->layout, spec);
+  impl->pipeline = std::make_unique<gpu::ComputePipeline>(impl->ctx, spirv, *impl->layout, spec);
   impl->pool = std::make_unique<gpu::DescriptorPool>(impl->ctx, 4);
   impl->recorder = std::make_unique<gpu::CommandRecorder>(impl->ctx);
   e->impl_ = std::move(impl);
@@ -788,6 +813,21 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
     const std::vector<std::byte> zeros(kBoundsBytes, std::byte{0});
     impl_->bounds.write(zeros);
   }
+  // Coverage: each invocation stores a row of its counters; a dispatch is at most as many
+  // invocations as kCoverageRowBytes holds rows, and the rows are added up after each.
+  uint64_t per_dispatch =
+      uint64_t{ctx.info().limits.maxComputeWorkGroupCount[0]} * impl_->workgroup;
+  const size_t row = impl_->coverage ? impl_->coverage->row_words() : 0;
+  if (row > 0) {
+    constexpr uint64_t kCoverageRowBytes = 64ull << 20;
+    const uint64_t rows = std::max<uint64_t>(1, kCoverageRowBytes / (4 * row) / impl_->workgroup);
+    per_dispatch = std::min(per_dispatch, rows * impl_->workgroup);
+    const VkDeviceSize bytes = 4 * row * std::min<uint64_t>(per_dispatch, count + impl_->workgroup);
+    if (impl_->counters.size() < bytes)
+      impl_->counters = gpu::Buffer(ctx, bytes, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  } else if (impl_->coverage && impl_->counters.size() == 0) {
+    impl_->counters = gpu::Buffer(ctx, 16, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
+  }
 
   impl_->pool->reset();
   VkDescriptorSet set = impl_->pool->allocate(impl_->layout->set_layout(0));
@@ -806,10 +846,9 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
   }
   if (check_bounds_)
     w.buffer(static_cast<uint32_t>(2 + resource_kinds_.size()), impl_->bounds.handle());
+  if (impl_->coverage) w.buffer(impl_->coverage_binding, impl_->counters.handle());
   w.update(ctx, set);
 
-  const uint64_t per_dispatch =
-      uint64_t{ctx.info().limits.maxComputeWorkGroupCount[0]} * impl_->workgroup;
   VkCommandBuffer cmd = impl_->recorder->begin();
   if (any_storage) {
     // Storage images keep their content between runs: make an earlier run's (or an upload's)
@@ -823,15 +862,31 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->pipeline->handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->layout->handle(), 0, 1, &set,
                           0, nullptr);
+  const bool capture = prints_ && ctx.debug_printf_enabled();
+  if (capture) (void)ctx.validation_sink().take_printf();  // not this run's
+  std::vector<uint64_t> coverage_counts(impl_->coverage ? impl_->coverage->counters() : 0);
   for (uint64_t base = 0; base < count; base += per_dispatch) {
     const uint32_t push[2] = {static_cast<uint32_t>(std::min<uint64_t>(per_dispatch, count - base)),
                               static_cast<uint32_t>(base)};
     vkCmdPushConstants(cmd, impl_->layout->handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0, 8, push);
-    vkCmdDispatch(cmd, (push[0] + impl_->workgroup - 1) / impl_->workgroup, 1, 1);
+    const uint32_t groups = (push[0] + impl_->workgroup - 1) / impl_->workgroup;
+    vkCmdDispatch(cmd, groups, 1, 1);
+    if (row > 0) {
+      impl_->recorder->submit_and_wait();
+      const auto rows =
+          impl_->counters.read_vector<uint32_t>(size_t(groups) * impl_->workgroup * row);
+      const auto& live = impl_->coverage->live;
+      for (size_t i = 0; i < rows.size(); ++i)
+        if (i % row < live.size()) coverage_counts[live[i % row]] += rows[i];
+      if (base + per_dispatch < count) {
+        cmd = impl_->recorder->begin();
+        vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->pipeline->handle());
+        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, impl_->layout->handle(), 0, 1,
+                                &set, 0, nullptr);
+      }
+    }
   }
-  const bool capture = prints_ && ctx.debug_printf_enabled();
-  if (capture) (void)ctx.validation_sink().take_printf();  // not this run's
-  impl_->recorder->submit_and_wait();
+  if (row == 0) impl_->recorder->submit_and_wait();
   impl_->out.read(outputs.first(count * output_stride_));
   if (printed != nullptr) {
     printed->clear();
@@ -858,6 +913,7 @@ void FunctionEngine::run(std::span<const std::byte> inputs, size_t count,
       }
     }
   }
+  if (impl_->coverage) detail::record_coverage(*impl_->coverage, coverage_counts);
   if (check_bounds_) {
     const auto v = impl_->bounds.read_vector<int32_t>(kBoundsBytes / 4);
     if (v[0] != 0) throw OutOfBoundsError(describe_out_of_bounds(v));

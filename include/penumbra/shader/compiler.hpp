@@ -42,6 +42,12 @@ struct CompileOptions {
   std::vector<Define> defines;
   // Runs glslang's SPIR-V optimizer (when glslang was built with it). Off by default.
   bool optimize = false;
+  // OpString/OpLine for every file read (each named by its canonical path, the main text by
+  // its name), as glslang's -g gives: what GLSL coverage maps its counters to. Off by default.
+  bool debug_info = false;
+  // Functions nothing calls are kept in the SPIR-V (glslang drops them by default), so that
+  // coverage can count their lines as not run. Off by default.
+  bool keep_uncalled = false;
   // A leading `#version` line of an included file (third-party GLSL often starts with one,
   // which glslang rejects after the main file's) is blanked in place, line numbers kept, and
   // CompiledShader::notes says so.

@@ -1,0 +1,20 @@
+// Coverage fixture: each counted line ends in a marker comment the test looks up.
+#ifndef COVERAGE_FIXTURE_GLSL
+#define COVERAGE_FIXTURE_GLSL
+
+int never_called(int x) {  // @never-decl
+  return x * 3;            // @never-body
+}
+
+int classify(float x) {  // @classify-decl
+  if (x < 0.0) {         // @if
+    return -1;           // @negative
+  }
+  int n = 0;                    // @after-if
+  for (int i = 0; i < 3; ++i) { // @loop
+    n += 1;                     // @loop-body
+  }
+  return n;  // @return
+}
+
+#endif
