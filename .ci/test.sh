@@ -6,7 +6,12 @@ cd "$(dirname "$0")/.."
 export PENUMBRA_BUILD=${PENUMBRA_BUILD:-build-asan}
 # The test sources at -O1 -g1 (line tables for the sanitizers' stack traces): half the compile
 # time of -O2 -g; the libraries under test keep RelWithDebInfo (CMakeLists.txt).
-.ci/build.sh -DPENUMBRA_SANITIZE=ON "-DPENUMBRA_TEST_COMPILE_OPTIONS=-O1;-g1"
+# GLSL coverage of shaders/penumbra/ by shader_tests/: each shader test process writes its
+# tracefile there (this run's only: the last run's are removed). The floors: docs/coverage.md.
+coverage=$(realpath -m "$PENUMBRA_BUILD/shader-coverage")
+.ci/build.sh -DPENUMBRA_SANITIZE=ON "-DPENUMBRA_TEST_COMPILE_OPTIONS=-O1;-g1" \
+  "-DPENUMBRA_SHADER_COVERAGE_DIR=$coverage"
+rm -rf "$coverage" "$PENUMBRA_BUILD/shader-coverage-html"
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 # CPU-only tests run with leak detection. Tests that load a Vulkan driver run without it: Mesa's
 # lavapipe and the validation layer leave a few hundred bytes behind in modules that are already
@@ -16,16 +21,28 @@ ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1} \
   ctest --test-dir "$PENUMBRA_BUILD" --output-on-failure -j2 -L cpu "$@" || status=1
 ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
   ctest --test-dir "$PENUMBRA_BUILD" --output-on-failure -j2 -LE cpu "$@" || status=1
+if (($# == 0)); then  # a filtered run (-R ...) covers only part of the library
+  tools/penumbra-coverage "$coverage" --include /shaders/penumbra/ --uncovered \
+    --min-lines 95 --min-branches 90 --html "$PENUMBRA_BUILD/shader-coverage-html" || status=1
+fi
 # The package as a user gets it: install into a fresh prefix, then configure, build and run the
 # example project (examples/shader-tests, the tutorial) against it, outside this tree.
 example=$(mktemp -d)
 trap 'rm -rf "$example"' EXIT
 if cmake --install "$PENUMBRA_BUILD" --prefix "$example/prefix" > "$example/install.log" &&
    cmake -S examples/shader-tests -B "$example/build" -G Ninja \
-     -DCMAKE_PREFIX_PATH="$example/prefix" > "$example/configure.log" &&
+     -DCMAKE_PREFIX_PATH="$example/prefix" -DTUTORIAL_COVERAGE="$example/coverage" \
+     > "$example/configure.log" &&
    cmake --build "$example/build" > "$example/build.log"; then
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
     ctest --test-dir "$example/build" --output-on-failure || status=1
+  # The project's GLSL coverage, with the installed report tool.
+  if ! "$example/prefix/bin/penumbra-coverage" "$example/coverage" --include examples/shader-tests/glsl \
+       > "$example/coverage.log" 2>&1 || ! grep -q "my_shading.glsl" "$example/coverage.log"; then
+    cat "$example/coverage.log"
+    echo "the example's GLSL coverage was not written or not read" >&2
+    status=1
+  fi
   # And run directly, as a user runs one test binary: from another directory, without CTest's
   # PENUMBRA_SHADER_DIR / PENUMBRA_SHADER_PATH, the package's GLSL and the project's SHADER_DIRS
   # are still found (compiled in from where find_package found the prefix).

@@ -1,6 +1,7 @@
 # install() and export: the test harness and the layers it stands on, the GLSL library, and the
-# CMake package (find_package(Penumbra CONFIG), penumbra_add_shader_tests). The renderer, the
-# scene layer and the tools are not part of the package.
+# CMake package (find_package(Penumbra CONFIG), penumbra_add_shader_tests), and
+# bin/penumbra-coverage (the GLSL coverage report of the harness's tracefiles). The renderer,
+# the scene layer and the other tools are not part of the package.
 include(CMakePackageConfigHelpers)
 set(PENUMBRA_INSTALL_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/Penumbra")
 set(PENUMBRA_INSTALL_SHADER_DIR "${CMAKE_INSTALL_DATADIR}/penumbra/shaders")
@@ -16,6 +17,7 @@ foreach(layer core gpu shader testing)
 endforeach()
 install(DIRECTORY "${PROJECT_SOURCE_DIR}/shaders/penumbra"
         DESTINATION "${PENUMBRA_INSTALL_SHADER_DIR}")
+install(PROGRAMS "${PROJECT_SOURCE_DIR}/tools/penumbra-coverage" DESTINATION "${CMAKE_INSTALL_BINDIR}")
 install(EXPORT PenumbraTargets NAMESPACE Penumbra:: DESTINATION "${PENUMBRA_INSTALL_CMAKE_DIR}")
 configure_package_config_file(
   "${PROJECT_SOURCE_DIR}/cmake/PenumbraConfig.cmake.in"

@@ -66,14 +66,17 @@ function(penumbra_discover_each_test target)
 endfunction()
 
 # penumbra_add_shader_tests(<name> SOURCES <files>... [SHADER_DIRS <dirs>...] [LABELS <l>...]
-#                           [LIBS <targets>...] [TIMEOUT <s>] [PER_TEST])
+#                           [LIBS <targets>...] [TIMEOUT <s>] [PER_TEST] [COVERAGE <dir>])
 # Builds a GoogleTest executable of shader-function tests linked with Penumbra::testing_main and
 # registers it with CTest, one test per suite (PER_TEST: one per test). Every test runs with the
 # Khronos validation layer on (PENUMBRA_VALIDATION=1), finds the GLSL in SHADER_DIRS (relative
 # to the current source directory; searched before Penumbra's own shader library) and keeps
 # its SPIR-V and Mesa caches in <build>/penumbra-cache, so that a warm run starts no glslang.
+# COVERAGE <dir>: GLSL line/branch coverage (PENUMBRA_COVERAGE): each test process writes an
+# LCOV tracefile into <dir> (relative to the current binary directory); merge them with
+# tools/penumbra-coverage, or lcov -a, and genhtml.
 function(penumbra_add_shader_tests name)
-  cmake_parse_arguments(T "PER_TEST" "TIMEOUT" "SOURCES;SHADER_DIRS;LABELS;LIBS" ${ARGN})
+  cmake_parse_arguments(T "PER_TEST" "TIMEOUT;COVERAGE" "SOURCES;SHADER_DIRS;LABELS;LIBS" ${ARGN})
   if(NOT T_SOURCES)
     message(FATAL_ERROR "penumbra_add_shader_tests(${name}): SOURCES is empty")
   endif()
@@ -111,6 +114,10 @@ namespace {
   endif()
   if(PENUMBRA_PACKAGE_SHADER_DIR)  # set by PenumbraConfig.cmake: the package's own copy
     list(APPEND env "PENUMBRA_SHADER_DIR=${PENUMBRA_PACKAGE_SHADER_DIR}")
+  endif()
+  if(T_COVERAGE)
+    get_filename_component(coverage "${T_COVERAGE}" ABSOLUTE BASE_DIR "${CMAKE_CURRENT_BINARY_DIR}")
+    list(APPEND env "PENUMBRA_COVERAGE=${coverage}")
   endif()
   if(T_PER_TEST)
     penumbra_discover_each_test(${name} LABELS ${T_LABELS} ENVIRONMENT ${env}

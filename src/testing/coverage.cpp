@@ -210,10 +210,33 @@ std::string demangle_glsl(std::string_view mangled) {
                digit(t[3])) {
       name = std::string(prefix(t[1])) + "mat" + t[2];
       if (t[2] != t[3]) name += std::string("x") + t[3];
+    } else if (t.rfind("struct-", 0) == 0) {
+      // struct-Name-member types...
+      name = std::string(t.substr(7, t.find('-', 7) - 7));
+    } else if (t.size() >= 2 && t[0] == 's') {
+      // s [I] [A] [S] dim [M] ...: sS21 sampler2DShadow, sASC1 samplerCubeArrayShadow
+      size_t k = 1;
+      const bool image = k < t.size() && t[k] == 'I' && ++k;
+      const bool arrayed = k < t.size() && t[k] == 'A' && ++k;
+      const bool shadow = k < t.size() && t[k] == 'S' && ++k;
+      const char dim = k < t.size() ? t[k++] : '?';
+      const bool ms = k < t.size() && t[k] == 'M' && ++k;
+      const char* dims = dim == '1'   ? "1D"
+                         : dim == '2' ? "2D"
+                         : dim == '3' ? "3D"
+                         : dim == 'C' ? "Cube"
+                                      : nullptr;
+      if (dims != nullptr &&
+          t.substr(k).find_first_not_of("0123456789") == std::string_view::npos) {
+        name = std::string(image ? "image" : "sampler") + dims + (ms ? "MS" : "") +
+               (arrayed ? "Array" : "") + (shadow ? "Shadow" : "");
+      } else {
+        name = std::string(t);
+      }
     } else {
       name = std::string(t);
     }
-    out += (first ? "" : ", ") + name + array;
+    out += (first ? "" : "; ") + name + array;  // LCOV's FN records take no comma
     first = false;
   }
   return out + ")";

@@ -134,6 +134,11 @@ TEST(Coverage, LinesBranchesAndFunctionsAreCountedExactly) {
   EXPECT_EQ(r.lines.at(line_of("never-body")), 0u);
   EXPECT_EQ(calls("classify(float)"), 10);
   EXPECT_EQ(calls("never_called(int)"), 0);
+  EXPECT_EQ(r.functions.at("never_called(int)"), 0u);
+  // glslang's mangled names, readable (and without the commas LCOV's records cannot hold).
+  EXPECT_EQ(r.functions.at("sample_twice(sampler2DShadow; vec3; mat3x4[2])"), 0u)
+      << penumbra::testing::coverage_tracefile();
+  EXPECT_EQ(r.lines.at(line_of("sample-body")), 0u);
   // if: true 4, false 6; the loop's condition: true 18, false 6.
   EXPECT_EQ(branch("if", 0), 4);
   EXPECT_EQ(branch("if", 1), 6);

@@ -6,6 +6,10 @@ int never_called(int x) {  // @never-decl
   return x * 3;            // @never-body
 }
 
+float sample_twice(sampler2DShadow s, vec3 p, mat3x4 m[2]) {  // @sample-decl
+  return texture(s, p) + m[1][0].x;                             // @sample-body
+}
+
 int classify(float x) {  // @classify-decl
   if (x < 0.0) {         // @if
     return -1;           // @negative
