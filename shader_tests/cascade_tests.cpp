@@ -7,7 +7,8 @@
 // - world -> shadow-map coordinates for orthographic and perspective lights in both depth
 //   conventions, each case checked against an error bound derived from the Vulkan precision
 //   rules; the uv Y convention on known points;
-// - selection by containment, from per-level coordinates and from clipmap matrices.
+// - selection by containment, from per-level coordinates and from clipmap matrices (both overloads
+//   of select_cascade_by_position: with the coordinate and without).
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -677,42 +678,55 @@ Mat8 random_clipmap(Rng& rng, bool reverse_z, glm::vec3& center, float& base) {
   return m;
 }
 
+using PositionCase = std::tuple<glm::vec3, Mat8, int32_t, float, float>;
+
+// Points around random clipmaps, 500 for each count 1..8: a log-uniform distance from the centre,
+// so every level gets points, redrawn while the point lies within float rounding of a level's
+// edge (in uv or depth). want receives the reference's level, per_level how many chose each.
+std::vector<PositionCase> clipmap_position_cases(Rng& rng, bool reverse_z,
+                                                 std::vector<int32_t>& want,
+                                                 std::vector<int>& per_level) {
+  std::vector<PositionCase> cases;
+  per_level.assign(9, 0);
+  for (int32_t count = 1; count <= 8; ++count) {
+    for (int k = 0; k < 500; ++k) {
+      glm::vec3 center;
+      float base = 0.0f;
+      const Mat8 levels = random_clipmap(rng, reverse_z, center, base);
+      const float res = 1024.0f, border = rng.bernoulli(0.5) ? 0.0f : 2.0f;
+      glm::vec3 p;
+      bool ambiguous = true;
+      while (ambiguous) {
+        const float radius = base * std::exp2(uniform(-1.0f, 9.0f)(rng));
+        p = center + unit_vector3()(rng) * radius;
+        ambiguous = false;
+        for (int i = 0; i < count && !ambiguous; ++i) {
+          const ref::ShadowCoord r =
+              ref::world_to_shadow_coord(levels[static_cast<std::size_t>(i)], p);
+          ambiguous = near_uv_edge(r.coord.x, res, border, 1e-2) ||
+                      near_uv_edge(r.coord.y, res, border, 1e-2) || std::abs(r.coord.z) < 1e-5 ||
+                      std::abs(r.coord.z - 1.0) < 1e-5;
+        }
+      }
+      cases.emplace_back(p, levels, count, border, res);
+      const int32_t level = ref::select_cascade_by_position(p, levels, count, border, res);
+      want.push_back(level);
+      ++per_level[static_cast<std::size_t>(level)];
+    }
+  }
+  return cases;
+}
+
 TEST_F(CascadeTest, SelectionByPositionInClipmapLevelsMatchesReference) {
   SCOPED_TRACE(seed_note());
   ShaderFunction<int32_t(glm::vec3, Mat8, int32_t, float, float, Out<glm::vec3>)> select(
       kCascade, "select_cascade_by_position");
   for (bool reverse_z : {true, false}) {
     SCOPED_TRACE(reverse_z ? "reverse-Z" : "standard depth");
-    std::vector<std::tuple<glm::vec3, Mat8, int32_t, float, float>> cases;
     std::vector<int32_t> want;
-    std::vector<int> per_level(9, 0);
-    for (int32_t count = 1; count <= 8; ++count) {
-      for (int k = 0; k < 500; ++k) {
-        glm::vec3 center;
-        float base = 0.0f;
-        const Mat8 levels = random_clipmap(rng_, reverse_z, center, base);
-        const float res = 1024.0f, border = rng_.bernoulli(0.5) ? 0.0f : 2.0f;
-        // Log-uniform distance from the centre, so every level gets points.
-        glm::vec3 p;
-        bool ambiguous = true;
-        while (ambiguous) {
-          const float radius = base * std::exp2(uniform(-1.0f, 9.0f)(rng_));
-          p = center + unit_vector3()(rng_) * radius;
-          ambiguous = false;
-          for (int i = 0; i < count && !ambiguous; ++i) {
-            const ref::ShadowCoord r =
-                ref::world_to_shadow_coord(levels[static_cast<std::size_t>(i)], p);
-            ambiguous = near_uv_edge(r.coord.x, res, border, 1e-2) ||
-                        near_uv_edge(r.coord.y, res, border, 1e-2) || std::abs(r.coord.z) < 1e-5 ||
-                        std::abs(r.coord.z - 1.0) < 1e-5;
-          }
-        }
-        cases.emplace_back(p, levels, count, border, res);
-        const int32_t level = ref::select_cascade_by_position(p, levels, count, border, res);
-        want.push_back(level);
-        ++per_level[static_cast<std::size_t>(level)];
-      }
-    }
+    std::vector<int> per_level;
+    const std::vector<PositionCase> cases =
+        clipmap_position_cases(rng_, reverse_z, want, per_level);
     for (int i = 0; i <= 8; ++i)
       EXPECT_GT(per_level[static_cast<std::size_t>(i)], 20) << "level " << i;
     const auto got = select.run(cases);
@@ -733,6 +747,44 @@ TEST_F(CascadeTest, SelectionByPositionInClipmapLevelsMatchesReference) {
     // The returned coordinate is the selected level's (kShadowCoordOutside when none; the zero
     // matrix gives w = 0, which the reference maps to outside too).
     EXPECT_TRUE(coords_within_bounds(matrices, points, coords));
+  }
+}
+
+// The overload without the coordinate forwards to the full one: the same level, case for case,
+// over the clipmap points above (counts 1..8, both conventions), and the reference's level.
+// Counts outside [0, 8] are clamped alike: 0 and below select nothing (0); 9 and above are 8
+// (taken from the count-8 points, whose every level was kept off the edges).
+TEST_F(CascadeTest, SelectionByPositionWithoutTheCoordinateMatchesTheFullOverload) {
+  SCOPED_TRACE(seed_note());
+  ShaderFunction<int32_t(glm::vec3, Mat8, int32_t, float, float)> level_only(
+      kCascade, "select_cascade_by_position");
+  ShaderFunction<int32_t(glm::vec3, Mat8, int32_t, float, float, Out<glm::vec3>)> full(
+      kCascade, "select_cascade_by_position");
+  for (bool reverse_z : {true, false}) {
+    SCOPED_TRACE(reverse_z ? "reverse-Z" : "standard depth");
+    std::vector<int32_t> want;
+    std::vector<int> per_level;
+    std::vector<PositionCase> cases = clipmap_position_cases(rng_, reverse_z, want, per_level);
+    const size_t generated = cases.size();
+    for (size_t i = 0; i < generated; ++i) {
+      if (std::get<2>(cases[i]) != 8) continue;
+      for (int32_t count : {-3, 0, 9, 100}) {
+        PositionCase c = cases[i];
+        std::get<2>(c) = count;
+        want.push_back(count <= 0 ? 0 : want[i]);
+        cases.push_back(c);
+      }
+    }
+    const auto got = level_only.run(cases);
+    const auto with_coord = full.run(cases);
+    std::vector<int32_t> full_levels;
+    for (const auto& r : with_coord) full_levels.push_back(std::get<0>(r));
+    PENUMBRA_EXPECT_ALL_NEAR(full_levels, got, Tolerance::exact(),
+                             [&](std::size_t i) { return format_tuple(cases[i]); });
+    PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::exact(),
+                             [&](std::size_t i) { return format_tuple(cases[i]); });
+    for (int i = 0; i <= 8; ++i)
+      EXPECT_GT(per_level[static_cast<std::size_t>(i)], 20) << "level " << i;
   }
 }
 

@@ -117,9 +117,11 @@ float pcss_spot_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray de
 
 // Returns the compare reference of a receiver at `distance` from a point light:
 // t = clamp((distance - near) * inv_range, 0, 1), 1 - t under reverse-Z (what the cube stores).
+// A NaN (a NaN input, inf * 0, inf - inf) is the far plane: tested before the clamp, whose
+// result for a NaN is undefined (lavapipe gives 0, the near plane).
 float cube_compare_depth(float distance, float near, float inv_range, bool reverse_z) {
-  float t = clamp((distance - near) * inv_range, 0.0, 1.0);
-  t = penumbra_is_nan(t) ? 1.0 : t;
+  float q = (distance - near) * inv_range;
+  float t = penumbra_is_nan(q) ? 1.0 : clamp(q, 0.0, 1.0);
   return reverse_z ? 1.0 - t : t;
 }
 
