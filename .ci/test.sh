@@ -24,6 +24,13 @@ ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
 if (($# == 0)); then  # a filtered run (-R ...) covers only part of the library
   tools/penumbra-coverage "$coverage" --include /shaders/penumbra/ --uncovered \
     --min-lines 99 --min-branches 93 --html "$PENUMBRA_BUILD/shader-coverage-html" || status=1
+  # Mutation testing's quick mode: 12 mutants of the library, each run against the test binaries
+  # whose coverage reached its line. The full score is in docs/coverage.md; this checks that the
+  # tests still kill most of a sample (a tool that no longer applies its mutants kills none).
+  rm -f "$PENUMBRA_BUILD/mutate-quick.jsonl"
+  ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} tools/penumbra-mutate --build "$PENUMBRA_BUILD" \
+    --coverage "$coverage" --quick 12 --min-score 50 \
+    --results "$PENUMBRA_BUILD/mutate-quick.jsonl" || status=1
 fi
 # The package as a user gets it: install into a fresh prefix, then configure, build and run the
 # example project (examples/shader-tests, the tutorial) against it, outside this tree.
