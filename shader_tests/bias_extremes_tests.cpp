@@ -4,6 +4,7 @@
 // the depth range in both conventions. Nothing may come out NaN or infinite.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -225,6 +226,90 @@ TEST_F(BiasExtremesTest, ApplyDepthBiasAtTheEndsOfTheDepthRange) {
   // Not clamped: a reverse-Z receiver at the near plane biased past 1 stays past 1.
   EXPECT_EQ(apply(1.0f, 0.01f, true), 1.01f);
   EXPECT_EQ(apply(0.0f, 0.01f, false), -0.01f);
+}
+
+// N.L exactly 0 (grazing) gives exactly 1, the rule for N.L <= 0, not the cross product's length,
+// which float normalisation leaves a few ULP off 1 (in both directions). Every pair has disjoint
+// support (normal in the xy plane, light along z, or the other way round), so each product of
+// the dot is 0 * x and the dot is exactly 0 on every device, fused or not.
+TEST_F(BiasExtremesTest, NormalOffsetScaleAtExactlyPerpendicularIsOne) {
+  ShaderFunction<float(glm::vec3, glm::vec3)> scale(kBias, "normal_offset_scale");
+  Rng rng(0xB1A5);
+  std::vector<std::tuple<glm::vec3, glm::vec3>> cases;
+  for (int i = 0; i < 512; ++i) {
+    const float a = float(6.283185307179586 * rng.next_unit());
+    const float r = float(std::pow(10.0, 6.0 * rng.next_unit() - 3.0));
+    const glm::vec3 in_plane(r * std::cos(a), r * std::sin(a), 0.0f);
+    const glm::vec3 axis(
+        0.0f, 0.0f,
+        float(std::pow(10.0, 6.0 * rng.next_unit() - 3.0)) * (i % 2 == 0 ? 1.0f : -1.0f));
+    if (i % 4 < 2)
+      cases.emplace_back(in_plane, axis);
+    else
+      cases.emplace_back(axis, in_plane);
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(std::vector<float>(cases.size(), 1.0f), scale.run(cases),
+                           Tolerance::exact(), [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+// A Jacobian whose products sum to exactly FLT_MIN (du/dx dv/dy = 2^-63 2^-63 = 2^-126, the
+// other product 0) is the smallest usable one: the determinant is FLT_MIN itself, inside the
+// division's accurate range, and the gradient is (dz/dx / du/dx, dz/dy / dv/dy) (a diagonal J).
+// Every value is a power of two times a small integer, so the exact gradient is a float; the
+// division may still be 2.5 ULP off (Vulkan), hence 3 ULP.
+TEST_F(BiasExtremesTest, ReceiverPlaneGradientAtTheSmallestNormalSize) {
+  ShaderFunction<glm::vec2(glm::vec3, glm::vec3)> gradient(kBias, "receiver_plane_depth_gradient");
+  const float s = 0x1p-63f;
+  const std::vector<std::tuple<glm::vec3, glm::vec3>> cases = {
+      {{s, 0.0f, 0.75f * 0x1p-60f}, {0.0f, s, -0x1p-61f}},
+      {{-s, 0.0f, 0x1p-62f}, {0.0f, -s, 3.0f * 0x1p-62f}},
+      {{0.0f, s, 0x1p-60f}, {s, 0.0f, -0x1p-60f}}};  // J anti-diagonal: dz/du = dz/dy / du/dy
+  const std::vector<glm::vec2> want = {{6.0f, -4.0f}, {-2.0f, -6.0f}, {-8.0f, 8.0f}};
+  PENUMBRA_EXPECT_ALL_NEAR(want, gradient.run(cases), Tolerance::ulps(3),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+// world_depth_bias: each NaN (or negative) parameter counts as 0 (its documented rule), checked
+// against the closed form with that parameter 0. n_dot_l 0.6: tan(theta) = 0.8 / 0.6 = 4/3; the
+// cases are chosen so that the 0 removes the slope term or makes the cap the constant, where the
+// result is exact (c + 0 * x = c, min(c + x, c) = c for x >= 0); with n_dot_l 1, tan(theta) = 0.
+TEST_F(BiasExtremesTest, WorldDepthBiasNaNOrNegativeParametersCountAsZero) {
+  ShaderFunction<float(float, float, float, float, float)> bias(kBias, "world_depth_bias");
+  // (n_dot_l, constant_world, slope_texels, max_slope_texels, texel_world) -> expected
+  const std::vector<std::tuple<float, float, float, float, float>> cases = {
+      {1.0f, kNaN, 2.0f, 3.0f, 0.5f},    // constant 0, tan 0: 0
+      {1.0f, -1.0f, 2.0f, 3.0f, 0.5f},   // the same
+      {0.6f, kNaN, 2.0f, 0.0f, 0.5f},    // constant 0, cap 0 + 0: 0
+      {0.6f, 0.25f, kNaN, 3.0f, 0.5f},   // slope 0: the constant
+      {0.6f, 0.25f, -2.0f, 3.0f, 0.5f},  // the same
+      {0.6f, 0.25f, 2.0f, kNaN, 0.5f},   // cap = constant + 0
+      {0.6f, 0.25f, 2.0f, -3.0f, 0.5f},  // the same
+      {0.6f, 0.25f, 2.0f, 3.0f, kNaN},   // texel 0: the constant
+      {0.6f, 0.25f, 2.0f, 3.0f, -0.5f},  // the same
+      {0.6f, kNaN, kNaN, kNaN, kNaN}};   // everything 0
+  const std::vector<float> want = {0.0f,  0.0f,  0.0f,  0.25f, 0.25f,
+                                   0.25f, 0.25f, 0.25f, 0.25f, 0.0f};
+  PENUMBRA_EXPECT_ALL_NEAR(want, bias.run(cases), Tolerance::exact(),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+// cube_texel_world_size for resolutions in (0, 1] (any positive resolution is valid: a face
+// texel spans 2 m / resolution). 2 m is exact; the division is within 2.5 ULP (Vulkan), hence
+// 3 ULP, of the exact quotient.
+TEST_F(BiasExtremesTest, CubeTexelWorldSizeForResolutionsUpToOne) {
+  ShaderFunction<float(glm::vec3, float)> texel(kBias, "cube_texel_world_size");
+  std::vector<std::tuple<glm::vec3, float>> cases;
+  std::vector<float> want;
+  for (const float resolution : {1.0f, 0.5f, 0.75f, 1e-3f, 0x1p-20f}) {
+    for (const glm::vec3 v : {glm::vec3(3.0f, -4.0f, 1.0f), glm::vec3(-0.1f, 0.05f, 0.0f)}) {
+      cases.emplace_back(v, resolution);
+      const double m =
+          std::max({std::fabs(double{v.x}), std::fabs(double{v.y}), std::fabs(double{v.z})});
+      want.push_back(float(2.0 * m / double{resolution}));
+    }
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, texel.run(cases), Tolerance::ulps(3),
+                           [&](size_t i) { return format_tuple(cases[i]); });
 }
 
 }  // namespace

@@ -425,5 +425,28 @@ TEST_F(CascadeExtremesTest, PositionSelectionWithDegenerateMatricesAndPoints) {
   }
 }
 
+// shadow_coord_in_bounds is false for a non-finite component, each alone (NaN, +inf, -inf in u,
+// v or depth with the others inside), whatever the border: also with border_texels = -inf, which
+// bounds no finite uv (the control cases are in bounds) and which an infinite uv would pass
+// (inf >= -inf) if the finiteness test let it through to the comparisons.
+TEST_F(CascadeExtremesTest, NonFiniteCoordComponentIsOutOfBoundsForAnyBorder) {
+  ShaderFunction<bool(glm::vec3, float, float)> in_bounds(kCascade, "shadow_coord_in_bounds");
+  std::vector<std::tuple<glm::vec3, float, float>> cases;
+  for (const float border : {0.0f, 2.0f, -kInf}) {
+    for (int component = 0; component < 3; ++component) {
+      for (const float bad : {kNaN, kInf, -kInf}) {
+        glm::vec3 c(0.5f, 0.25f, 0.75f);
+        c[component] = bad;
+        cases.emplace_back(c, border, 1024.0f);
+      }
+    }
+  }
+  const std::vector<bool> got = in_bounds.run(cases);
+  for (size_t i = 0; i < cases.size(); ++i) EXPECT_FALSE(got[i]) << format_tuple(cases[i]);
+  // Controls: finite coordinates pass with an infinitely negative border, even far outside.
+  EXPECT_TRUE(in_bounds(glm::vec3(0.5f, 0.25f, 0.75f), -kInf, 1024.0f));
+  EXPECT_TRUE(in_bounds(glm::vec3(-3e30f, 4e30f, 0.0f), -kInf, 1024.0f));
+}
+
 }  // namespace
 }  // namespace penumbra::testing

@@ -10,6 +10,7 @@
 // infinity is required of every implementation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -195,6 +196,31 @@ TEST_F(DepthExtremesTest, LinearizedDepthIsNeverNaNAndStaysBetweenThePlanes) {
   }
 }
 
+// view_distance_to_depth at a finite z so large that z * (far - near) overflows (from about 1e36
+// when the range exceeds 1): the depth approaches its limit at infinity and stays finite. (The
+// products' form gave inf / inf = NaN for standard-Z and -0 for reverse-Z there.) Bound: the
+// ratios' form, range 1 rounding, far - z or z - near 1, two divisions 2.5 each, the product 1:
+// 8 * 2^-23; a reverse-Z depth below FLT_MIN may be flushed.
+TEST_F(DepthExtremesTest, ViewDistanceToDepthStaysFiniteWhereTheProductsOverflow) {
+  ShaderFunction<float(float, float, float, bool)> to_depth(kDepth, "view_distance_to_depth");
+  std::vector<std::tuple<float, float, float, bool>> cases;
+  for (const auto& [near, far] : {std::pair{0.01f, 10.0f}, std::pair{0.1f, 1000.0f},
+                                  std::pair{1.0f, 1e6f}, std::pair{1e-3f, 1e30f}})
+    for (float z = 1e30f; z < kMax; z = z < kMax / 2.0f ? z * 2.0f : kMax)
+      for (const bool reverse : {true, false}) cases.emplace_back(z, near, far, reverse);
+  const auto got = to_depth.run(cases);
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const auto [z, near, far, reverse] = cases[i];
+    const double zd = z, n = near, f = far;
+    const double want = reverse ? n * (f - zd) / (zd * (f - n)) : f * (zd - n) / (zd * (f - n));
+    const double bound = std::max(8.0 * kRoundingRel * 1.001 * std::fabs(want), ref::kFlushFloor);
+    ASSERT_TRUE(std::isfinite(got[i])) << "z " << z << " near " << near << " far " << far
+                                       << (reverse ? " reverse" : " standard") << ": " << got[i];
+    EXPECT_NEAR(got[i], want, bound)
+        << "z " << z << " near " << near << " far " << far << (reverse ? " reverse" : " standard");
+  }
+}
+
 // view_distance_to_depth at the planes (exact zeros where the difference vanishes), at z = 0
 // (the signed infinity IEEE division gives) and at z = +inf or NaN (the limit at infinity).
 TEST_F(DepthExtremesTest, ViewDistanceToDepthAtPlanesZeroAndInfinity) {
@@ -317,6 +343,41 @@ TEST_F(DepthExtremesTest, ReconstructionAtThePlanes) {
       }
     }
   }
+}
+
+// ray_plane_point when the ray meets the plane exactly at the cap (max_stretch 1 and `through`
+// on the plane: t = 1 exactly and the move is `through - p` itself, so |move| and the cap are the
+// same length of the same vector): the move is not beyond the cap, so the hit, `through`, comes
+// back exactly (eye + dir * 1 is exact for these small binary fractions).
+TEST_F(DepthExtremesTest, RayPlanePointExactlyAtTheCapIsTheHit) {
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, glm::vec3, glm::vec3, float)> footprint(
+      kDepth, "ray_plane_point");
+  using Case = std::tuple<glm::vec3, glm::vec3, glm::vec3, glm::vec3, float>;
+  const std::vector<Case> cases = {
+      {{0.0f, 0.0f, 0.0f}, {1.0f, 0.0f, -2.0f}, {0.0f, 0.0f, -2.0f}, {0.0f, 0.0f, 1.0f}, 1.0f},
+      {{0.5f, 1.0f, 0.0f}, {1.5f, 1.0f, -2.0f}, {0.5f, 1.0f, -2.0f}, {0.0f, 0.0f, 1.0f}, 1.0f},
+      {{0.0f, 0.0f, 0.0f}, {3.0f, -0.25f, 0.0f}, {3.0f, 0.5f, 0.0f}, {-2.0f, 0.0f, 0.0f}, 1.0f},
+      {{1.0f, 2.0f, 3.0f}, {1.0f, 6.0f, 3.75f}, {1.0f, 6.0f, 3.0f}, {0.0f, 0.5f, 0.0f}, 1.0f}};
+  const std::vector<glm::vec3> got = footprint.run(cases);
+  for (size_t i = 0; i < cases.size(); ++i)
+    EXPECT_EQ(got[i], std::get<1>(cases[i]))
+        << format_tuple(cases[i]) << " -> " << format_value(got[i]);
+}
+
+// ray_plane_point with `through` at the eye: no ray at all (dir = 0, so t = x / 0 and the hit
+// are not finite) and no direction to move along, so the point stays at p, exactly.
+TEST_F(DepthExtremesTest, RayPlanePointWithoutARayStaysAtThePoint) {
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, glm::vec3, glm::vec3, float)> footprint(
+      kDepth, "ray_plane_point");
+  using Case = std::tuple<glm::vec3, glm::vec3, glm::vec3, glm::vec3, float>;
+  const std::vector<Case> cases = {
+      {{0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, 0.0f}, {0.0f, 0.0f, -2.0f}, {0.0f, 0.0f, 1.0f}, 1.0f},
+      {{1.0f, 2.0f, 3.0f}, {1.0f, 2.0f, 3.0f}, {4.0f, -1.0f, 0.5f}, {0.0f, 0.6f, 0.8f}, 8.0f},
+      {{-5.0f, 0.0f, 7.0f}, {-5.0f, 0.0f, 7.0f}, {-5.0f, 0.0f, 7.0f}, {1.0f, 0.0f, 0.0f}, 2.0f}};
+  const std::vector<glm::vec3> got = footprint.run(cases);
+  for (size_t i = 0; i < cases.size(); ++i)
+    EXPECT_EQ(got[i], std::get<2>(cases[i]))
+        << format_tuple(cases[i]) << " -> " << format_value(got[i]);
 }
 
 }  // namespace

@@ -745,5 +745,109 @@ TEST_F(VsmTest, Evsm2CubeArrayReadsTheFaceAndCubeOfTheDirection) {
   }
 }
 
+// ---- parameter and coordinate limits -------------------------------------------------------
+
+// The bleed amount is clamped to [0, 1] before linstep: a negative amount reduces nothing (p
+// comes back unchanged, p / 1 exactly), an amount above 1 keeps only p = 1 (amount 1's step).
+// Exact: no rounding is involved in either case.
+TEST_F(VsmTest, LightBleedAmountOutsideUnitIntervalIsClamped) {
+  ShaderFunction<float(float, float)> f("penumbra/vsm.glsl", "vsm_reduce_light_bleeding");
+  std::vector<std::tuple<float, float>> cases;
+  std::vector<float> want;
+  for (float p : {0.0f, 0.25f, 0.5f, 0.999f, 1.0f}) {
+    for (float a : {-1e-6f, -0.5f, -1.0f, -4.0f, -1e30f}) {
+      cases.emplace_back(p, a);
+      want.push_back(p);  // amount 0
+    }
+    for (float a : {1.0f + 0x1p-23f, 2.0f, 1e30f}) {
+      cases.emplace_back(p, a);
+      want.push_back(p >= 1.0f ? 1.0f : 0.0f);  // amount 1
+    }
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, f.run(cases), Tolerance::exact(),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+// evsm_warp clamps the depth to [0, 1] before warping: a depth beyond either end warps like the
+// end itself, x = 2 f - 1 = +-1 and w = (exp(c+ x), -exp(-c- x)). With c = 5 the argument c x =
+// +-5 is exact, so the only error is exp's (3 + 2 |x| = 13 ULP): 1e-5 relative covers it, and an
+// unclamped depth (x = 3 for depth 2) would be off by a factor exp(10).
+TEST_F(VsmTest, EvsmWarpClampsTheDepthToUnitInterval) {
+  ShaderFunction<glm::vec2(float, glm::vec2, bool, bool)> warp("penumbra/vsm.glsl", "evsm_warp");
+  const glm::vec2 c(5.0f, 5.0f);
+  std::vector<std::tuple<float, glm::vec2, bool, bool>> cases;
+  std::vector<glm::vec2> want;
+  for (bool reverse_z : {false, true}) {
+    for (float depth : {-1e30f, -2.0f, -0.5f, -0x1p-20f, 1.0f + 0x1p-20f, 1.5f, 2.0f, 1e30f}) {
+      const double clamped = std::clamp(double(depth), 0.0, 1.0);
+      const double x = 2.0 * (reverse_z ? 1.0 - clamped : clamped) - 1.0;
+      cases.emplace_back(depth, c, reverse_z, false);
+      want.emplace_back(float(std::exp(5.0 * x)), float(-std::exp(-5.0 * x)));
+    }
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want, warp.run(cases), Tolerance::relative(1e-5),
+                           [&](size_t i) { return format_tuple(cases[i]); });
+}
+
+// The map is the closed square [0, 1]^2: a coordinate exactly 0 or 1 (either sign of zero) is
+// inside; anything beyond, or a non-finite component (depth included), is outside.
+TEST_F(VsmTest, CoordInMapIsTheClosedUnitSquare) {
+  ShaderFunction<bool(glm::vec3)> in_map("penumbra/vsm.glsl", "vsm_coord_in_map");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const float below = -std::numeric_limits<float>::denorm_min(), above = 1.0f + 0x1p-23f;
+  const std::vector<std::tuple<glm::vec3>> inside = {
+      {{0.0f, 0.5f, 0.5f}}, {{0.5f, 0.0f, 0.5f}},  {{0.0f, 0.0f, 0.5f}},  {{-0.0f, -0.0f, 0.5f}},
+      {{1.0f, 0.5f, 0.5f}}, {{0.5f, 1.0f, 0.5f}},  {{1.0f, 1.0f, 0.5f}},  {{0.0f, 1.0f, 0.5f}},
+      {{1.0f, 0.0f, 0.5f}}, {{0.5f, 0.5f, -7.0f}}, {{0.5f, 0.5f, 1e30f}}, {{0.25f, 0.75f, 0.0f}}};
+  const std::vector<std::tuple<glm::vec3>> outside = {
+      {{below, 0.5f, 0.5f}}, {{0.5f, below, 0.5f}}, {{above, 0.5f, 0.5f}}, {{0.5f, above, 0.5f}},
+      {{nan, 0.5f, 0.5f}},   {{0.5f, nan, 0.5f}},   {{0.5f, 0.5f, nan}},   {{inf, 0.5f, 0.5f}},
+      {{0.5f, -inf, 0.5f}},  {{0.5f, 0.5f, inf}},   {{-1.0f, 2.0f, 0.5f}}};
+  const auto got_in = in_map.run(inside);
+  for (size_t i = 0; i < inside.size(); ++i) EXPECT_TRUE(got_in[i]) << format_tuple(inside[i]);
+  const auto got_out = in_map.run(outside);
+  for (size_t i = 0; i < outside.size(); ++i) EXPECT_FALSE(got_out[i]) << format_tuple(outside[i]);
+}
+
+// Off the map (uv outside [0, 1]^2, or a non-finite coordinate) the EVSM2 reads are lit, exactly
+// 1, although every texel of the map holds a blocker that shadows the receiver: the in-map
+// control reads the same map and is dark. Both the 2D and the array form.
+TEST_F(VsmTest, Evsm2SampleShadowOffTheMapIsLit) {
+  const float c = 5.0f, mv = 1e-6f, receiver = 0.7f;
+  const glm::vec2 blocker = evsm2_pair(0.4, c, false);  // standard depth: 0.4 is in front
+  FloatTextureDesc desc;
+  desc.width = desc.height = 4;
+  desc.channels = 2;
+  desc.sampler.filter = VK_FILTER_LINEAR;
+  std::vector<float> rg;
+  for (int i = 0; i < 16; ++i) rg.insert(rg.end(), {blocker.x, blocker.y});
+  ShaderFunction<float(Sampler2D, glm::vec3, float, float, float, bool, bool)> evsm2(
+      "penumbra/vsm.glsl", "evsm2_sample_shadow");
+  evsm2.bind(0, make_float_texture(desc, rg));
+  std::vector<float> layers = rg;
+  layers.insert(layers.end(), rg.begin(), rg.end());
+  FloatTextureDesc adesc = desc;
+  adesc.layers = 2;
+  adesc.array = true;
+  Evsm2ArrayFn evsm2_array("penumbra/vsm.glsl", "evsm2_sample_shadow_array");
+  evsm2_array.bind(0, make_float_texture(adesc, layers));
+
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<glm::vec3> off = {
+      {-0.01f, 0.5f, receiver}, {1.01f, 0.5f, receiver}, {0.5f, -0.01f, receiver},
+      {0.5f, 1.01f, receiver},  {-3.0f, 4.0f, receiver}, {nan, 0.5f, receiver},
+      {0.5f, inf, receiver},    {0.5f, 0.5f, nan},       {0.5f, 0.5f, -inf}};
+  for (bool fp16 : {false, true}) {
+    EXPECT_LT(evsm2(glm::vec3(0.5f, 0.5f, receiver), c, mv, 0.0f, false, fp16), 0.01f);
+    EXPECT_LT(evsm2_array(glm::vec3(0.5f, 0.5f, receiver), 1, c, mv, 0.0f, false, fp16), 0.01f);
+    for (const glm::vec3& coord : off) {
+      EXPECT_EQ(evsm2(coord, c, mv, 0.0f, false, fp16), 1.0f) << format_value(coord);
+      EXPECT_EQ(evsm2_array(coord, 1, c, mv, 0.0f, false, fp16), 1.0f) << format_value(coord);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing

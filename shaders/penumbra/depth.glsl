@@ -56,7 +56,8 @@ float linearize_depth_infinite(float d, float near, bool reverse_z) {
 
 // The depth of a point at positive view distance z (the inverse of linearize_depth): in [0, 1]
 // for z in [near, far], outside it beyond the planes (as the projection gives before clipping).
-// Relative error < 6.5 * 2^-23 for finite z > 0; z = 0 gives an infinity (+ reverse, - standard);
+// Relative error < 6.5 * 2^-23 for finite z > 0 where z * (far - near) is finite, < 8 * 2^-23
+// beyond; z = 0 gives an infinity (+ reverse, - standard);
 // z = +infinity (and NaN) gives the limit at infinity, -near / (far - near) for reverse-Z and
 // far / (far - near) for standard-Z.
 float view_distance_to_depth(float z, float near, float far, bool reverse_z) {
@@ -64,7 +65,12 @@ float view_distance_to_depth(float z, float near, float far, bool reverse_z) {
   if (!(z <= kFloatMax)) return reverse_z ? -near / range : far / range;
   // The products of differences keep full relative precision near either plane (where reverse-Z
   // depths approach 0, a form like far / z - 1 would cancel).
-  return reverse_z ? (near * (far - z)) / (z * range) : (far * (z - near)) / (z * range);
+  float num = reverse_z ? near * (far - z) : far * (z - near);
+  float den = z * range;
+  if (abs(num) <= kFloatMax && den <= kFloatMax) return num / den;
+  // A z so large that a product overflows (from about 1e36 when range > 1: inf / inf was NaN):
+  // the same value as a product of ratios, which cannot overflow (two divisions: < 8 * 2^-23).
+  return reverse_z ? (near / range) * ((far - z) / z) : (far / range) * ((z - near) / z);
 }
 
 // The depth of a point at positive view distance z under an infinite-far projection (the inverse
