@@ -467,6 +467,39 @@ struct PathCounts {
   }
 };
 
+// Compares each case's result with its reference (expected(i)), leaving out the cases whose
+// search taps sit too near a texel edge to call (ambiguous), and checks that every path was
+// taken often enough to mean something: few left out, some lit, some shadowed without
+// filtering, most filtered.
+template <class Cases, class Expected>
+void expect_pcss_matches_reference(const Cases& cases, const std::vector<float>& got,
+                                   bool reverse_z, Expected expected) {
+  std::vector<LocalPcssExpected> want;
+  std::vector<float> got_checked;
+  std::vector<size_t> index;
+  PathCounts paths;
+  for (size_t i = 0; i < cases.size(); ++i) {
+    const LocalPcssExpected e = expected(i);
+    if (e.ambiguous) {
+      ++paths.skipped;
+      continue;
+    }
+    paths.add(e);
+    want.push_back(e);
+    got_checked.push_back(got[i]);
+    index.push_back(i);
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(clamp_into(want, got_checked), got_checked, Tolerance::exact(),
+                           [&](size_t k) { return format_tuple(cases[index[k]]); });
+  std::cout << "[ local pcss ] " << (reverse_z ? "reverse-Z" : "standard") << ": compared "
+            << paths.compared << " of " << cases.size() << " (" << paths.lit << " no-blocker, "
+            << paths.shadowed << " all-blocker, " << paths.filtered << " filtered)\n";
+  EXPECT_LT(paths.skipped, cases.size() / 10);
+  EXPECT_GT(paths.lit, cases.size() / 50);
+  EXPECT_GT(paths.shadowed, cases.size() / 100);
+  EXPECT_GT(paths.filtered, cases.size() / 2);
+}
+
 using SpotPcss = ShaderFunction<float(Sampler2DArrayShadow, Sampler2DArray, glm::vec3, int32_t,
                                       glm::vec2, float, Local, int32_t, float, bool, glm::vec2)>;
 
@@ -517,33 +550,11 @@ TEST_F(LocalShadowTest, SpotPcssArrayMatchesTheReferenceOnEachLayer) {
     const auto offsets = vogel_offsets(sets);
     const auto got = pcss.run(cases);
     const double base = compare_tap_bound() + 2e-4;
-    std::vector<LocalPcssExpected> want;
-    std::vector<float> got_checked;
-    std::vector<size_t> index;
-    PathCounts paths;
-    for (size_t i = 0; i < cases.size(); ++i) {
+    expect_pcss_matches_reference(cases, got, reverse_z, [&](size_t i) {
       const auto& [c, layer, ts, zr, p, tier, rot, rz, g] = cases[i];
-      const auto e =
-          local_pcss_reference(layers[size_t(layer)], {c.x, c.y}, c.z, zr, p, offsets[2 * i],
-                               offsets[2 * i + 1], reverse_z, distance_of, base);
-      if (e.ambiguous) {
-        ++paths.skipped;
-        continue;
-      }
-      paths.add(e);
-      want.push_back(e);
-      got_checked.push_back(got[i]);
-      index.push_back(i);
-    }
-    PENUMBRA_EXPECT_ALL_NEAR(clamp_into(want, got_checked), got_checked, Tolerance::exact(),
-                             [&](size_t k) { return format_tuple(cases[index[k]]); });
-    std::cout << "[ local pcss ] " << (reverse_z ? "reverse-Z" : "standard") << ": compared "
-              << paths.compared << " of " << cases.size() << " (" << paths.lit << " no-blocker, "
-              << paths.shadowed << " all-blocker, " << paths.filtered << " filtered)\n";
-    EXPECT_LT(paths.skipped, cases.size() / 10);
-    EXPECT_GT(paths.lit, cases.size() / 50);
-    EXPECT_GT(paths.shadowed, cases.size() / 100);
-    EXPECT_GT(paths.filtered, cases.size() / 2);
+      return local_pcss_reference(layers[size_t(layer)], {c.x, c.y}, c.z, zr, p, offsets[2 * i],
+                                  offsets[2 * i + 1], reverse_z, distance_of, base);
+    });
   }
 }
 
@@ -685,33 +696,11 @@ TEST_F(LocalShadowTest, CubePcssArrayMatchesTheReferenceOnEachFace) {
     }
     const auto got = pcss.run(cases);
     const double base = compare_tap_bound() + 2e-4;
-    std::vector<LocalPcssExpected> want;
-    std::vector<float> got_checked;
-    std::vector<size_t> index;
-    PathCounts paths;
-    for (size_t i = 0; i < cases.size(); ++i) {
+    expect_pcss_matches_reference(cases, got, reverse_z, [&](size_t i) {
       const auto& [dir, cube, ref, zr, res, p, tier, rot, rz, normal] = cases[i];
-      const auto e =
-          local_pcss_reference(faces[size_t(face_of[i])], {0.5, 0.5}, ref, zr, p, offsets[2 * i],
-                               offsets[2 * i + 1], reverse_z, distance_of, base);
-      if (e.ambiguous) {
-        ++paths.skipped;
-        continue;
-      }
-      paths.add(e);
-      want.push_back(e);
-      got_checked.push_back(got[i]);
-      index.push_back(i);
-    }
-    PENUMBRA_EXPECT_ALL_NEAR(clamp_into(want, got_checked), got_checked, Tolerance::exact(),
-                             [&](size_t k) { return format_tuple(cases[index[k]]); });
-    std::cout << "[ local pcss ] " << (reverse_z ? "reverse-Z" : "standard") << ": compared "
-              << paths.compared << " of " << cases.size() << " (" << paths.lit << " no-blocker, "
-              << paths.shadowed << " all-blocker, " << paths.filtered << " filtered)\n";
-    EXPECT_LT(paths.skipped, cases.size() / 10);
-    EXPECT_GT(paths.lit, cases.size() / 50);
-    EXPECT_GT(paths.shadowed, cases.size() / 100);
-    EXPECT_GT(paths.filtered, cases.size() / 2);
+      return local_pcss_reference(faces[size_t(face_of[i])], {0.5, 0.5}, ref, zr, p, offsets[2 * i],
+                                  offsets[2 * i + 1], reverse_z, distance_of, base);
+    });
   }
 }
 
