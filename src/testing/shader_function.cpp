@@ -12,6 +12,7 @@
 #include <penumbra/testing/coverage.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/shader_function.hpp>
+#include <set>
 #include <sstream>
 
 #include "coverage_spirv.hpp"
@@ -284,6 +285,17 @@ bool uses_capability(const std::vector<uint32_t>& spirv, uint32_t capability) {
 }
 
 // Does the module import NonSemantic.DebugPrintf (OpExtInstImport, opcode 11)?
+std::set<uint32_t> capabilities(const std::vector<uint32_t>& spirv) {
+  std::set<uint32_t> caps;
+  for (size_t i = 5; i < spirv.size();) {
+    const uint32_t words = spirv[i] >> 16, opcode = spirv[i] & 0xffffu;
+    if (words == 0 || i + words > spirv.size()) break;
+    if (opcode == 17 && i + 1 < spirv.size()) caps.insert(spirv[i + 1]);  // OpCapability
+    i += words;
+  }
+  return caps;
+}
+
 bool imports_debug_printf(const std::vector<uint32_t>& spirv) {
   for (size_t i = 5; i < spirv.size();) {
     const uint32_t words = spirv[i] >> 16, opcode = spirv[i] & 0xffffu;
@@ -313,7 +325,11 @@ bool parse_printf(const std::string& message, uint64_t& dispatch, uint64_t& invo
   const size_t close = message.find(')', g + id_key.size());
   if (close == std::string::npos) return false;
   text = message.substr(std::min(message.size(), close + 2));
-  for (const char* tail : {" Unable to find SPIR-V OpLine", "\nUnable to find SPIR-V OpLine"}) {
+  // What the layer appends: where it could not find a line, or, for SPIR-V with line
+  // information (coverage), the file and line of the printf.
+  for (const char* tail : {" Unable to find SPIR-V OpLine", "\nUnable to find SPIR-V OpLine",
+                           " Debug shader printf message generated in file",
+                           "\nDebug shader printf message generated in file"}) {
     const size_t t = text.rfind(tail);
     if (t != std::string::npos) text.resize(t);
   }
@@ -657,11 +673,7 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   co.disk_cache_dir = shader::default_disk_cache_dir();
   co.strip_include_version = options.strip_include_version;
   co.include_once = options.include_once;
-  // Coverage: lines to map the counters to, and every function of the tested files, called or
-  // not, so that what no test runs is counted as not run.
   const bool coverage = coverage_directory().has_value();
-  co.debug_info = coverage;
-  co.keep_uncalled = coverage;
   shader::Compiler compiler(co);
   const std::string wrapper_name = "penumbra-wrapper(" + function + ").comp";
   shader::CompiledShader compiled;
@@ -748,6 +760,38 @@ std::shared_ptr<FunctionEngine> FunctionEngine::get(const fs::path& file_arg,
   }
   std::vector<uint32_t> spirv = std::move(compiled.spirv);
   if (coverage) {
+    // Every check above ran on the wrapper as it is without coverage. The pipeline gets a
+    // second compile with lines to map the counters to, and with every function of the tested
+    // files, called or not, so that what no test runs counts as not run. An uncalled function
+    // may need a capability the tested one does not (a format-less imageLoad elsewhere in the
+    // file): then that wrapper is compiled without the uncalled functions, as before.
+    shader::CompileOptions cov = co;
+    cov.debug_info = true;
+    cov.keep_uncalled = true;
+    std::vector<uint32_t> lined =
+        shader::Compiler(cov)
+            .compile_source(e->source_, wrapper_name, shader::Stage::compute)
+            .spirv;
+    // Capabilities that need a device feature (the others, such as Sampled1D for the bounds
+    // checks' kept overloads, every Vulkan device has).
+    static const std::set<uint32_t> kFeatureGated = {
+        9, 10, 11, 12, 22, 39,  // Float16, Float64, Int64, Int64Atomics, Int16, Int8
+        25, 27, 32, 33,         // ImageGatherExtended, StorageImageMultisample, Clip/CullDistance
+        34, 41, 42, 45, 49,     // ImageCubeArray, SparseResidency, MinLod, SampledCubeArray,
+                                // StorageImageExtendedFormats
+        56, 57,                 // StorageImageRead/WriteWithoutFormat
+        61, 62, 63, 64, 65, 66, 67, 68};  // GroupNonUniform*
+    const std::set<uint32_t> plain = capabilities(spirv);
+    bool needs_more = false;
+    for (uint32_t c : capabilities(lined))
+      needs_more = needs_more || (!plain.count(c) && kFeatureGated.count(c));
+    if (needs_more) {
+      cov.keep_uncalled = false;
+      lined = shader::Compiler(cov)
+                  .compile_source(e->source_, wrapper_name, shader::Stage::compute)
+                  .spirv;
+    }
+    spirv = std::move(lined);
     impl->coverage_binding = uint32_t(bounds_binding + (options.check_bounds ? 1 : 0));
     detail::InstrumentedSpirv inst = detail::instrument_for_coverage(
         spirv, 0, impl->coverage_binding, [&](std::string_view name) {

@@ -185,3 +185,25 @@ TEST(Coverage, TheTracefileIsWrittenWhereAsked) {
   EXPECT_THAT(text.str(), HasSubstr("end_of_record"));
   EXPECT_FALSE(fs::exists(written.string() + ".tmp"));
 }
+
+// Coverage keeps the tested file's uncalled functions. One of funcs.glsl's reads a format-less
+// storage image, which needs shaderStorageImageReadWithoutFormat; fetch_texel does not. With
+// coverage on, testing fetch_texel must work wherever it works without coverage (lavapipe has no
+// such reads): the checks run on the plain wrapper, and a kept function that needs more is left
+// out of the covered compile.
+TEST(Coverage, AnUncalledFunctionsNeedsDoNotFailTheTestedOne) {
+  ::setenv("PENUMBRA_COVERAGE", kDirectory.c_str(), 1);
+  penumbra::testing::FloatTextureDesc desc;
+  desc.width = 4;
+  desc.height = 2;
+  desc.channels = 4;
+  auto tex = penumbra::testing::make_float_texture(desc, std::vector<float>(4 * 2 * 4, 7.0f));
+  penumbra::testing::FunctionOptions unchecked;
+  unchecked.check_bounds = false;
+  ShaderFunction<glm::vec4(penumbra::testing::Sampler2D, glm::ivec2)> fetch(
+      fs::path(PENUMBRA_TEST_DATA_DIR) / "harness" / "funcs.glsl", "fetch_texel", unchecked);
+  fetch.bind(0, tex);
+  const auto got = fetch.run(std::vector<std::tuple<glm::ivec2>>{{glm::ivec2(1, 1)}});
+  EXPECT_EQ(got[0], glm::vec4(7.0f));
+  EXPECT_THAT(penumbra::testing::coverage_tracefile(), HasSubstr("funcs.glsl"));
+}
