@@ -28,6 +28,7 @@
 #include "reference/depth_ref.hpp"
 #include "reference/filter_ref.hpp"
 #include "reference/local_ref.hpp"
+#include "vogel_offsets.hpp"
 
 PENUMBRA_GLSL_STRUCT(penumbra::filter_ref::PcssParams, "PcssParams", tan_half_angle,
                      texel_world_size, depth_near, depth_far, max_search_texels, min_filter_texels,
@@ -374,22 +375,6 @@ LocalPcssExpected local_pcss_reference(const filter_ref::DepthMap& m, glm::dvec2
   e.value = 1.0 - c * (1.0 - filtered);
   e.tolerance = base_tolerance + 2.0 * c * dr;
   return e;
-}
-
-// Unit-disk offsets of Vogel tap sets (count, rotation), read back from noise.glsl.
-std::vector<std::vector<glm::dvec2>> vogel_offsets(const std::vector<std::pair<int, float>>& sets) {
-  ShaderFunction<glm::vec2(int32_t, int32_t, float)> f("penumbra/noise.glsl", "vogel_disk_sample");
-  std::vector<std::tuple<int32_t, int32_t, float>> in;
-  for (auto [n, rot] : sets)
-    for (int i = 0; i < n; ++i) in.emplace_back(i, n, rot);
-  const auto got = f.run(in);
-  std::vector<std::vector<glm::dvec2>> out;
-  size_t k = 0;
-  for (auto [n, rot] : sets) {
-    out.emplace_back();
-    for (int i = 0; i < n; ++i) out.back().push_back(glm::dvec2(got[k++]));
-  }
-  return out;
 }
 
 double compare_tap_bound() {

@@ -27,6 +27,7 @@
 #include <vector>
 
 #include "reference/filter_ref.hpp"
+#include "vogel_offsets.hpp"
 
 namespace penumbra::testing {
 namespace {
@@ -79,23 +80,6 @@ class PcfTest : public GpuTest {
     std::vector<std::tuple<int32_t, float>> in;
     for (auto [n, rot] : count_rotation)
       for (int i = 0; i < n; ++i) in.emplace_back(i, rot);
-    const auto got = f.run(in);
-    std::vector<std::vector<glm::dvec2>> out;
-    size_t k = 0;
-    for (auto [n, rot] : count_rotation) {
-      out.emplace_back();
-      for (int i = 0; i < n; ++i) out.back().push_back(glm::dvec2(got[k++]));
-    }
-    return out;
-  }
-  // Unit-disk offsets of the Vogel taps, read back from noise.glsl.
-  static std::vector<std::vector<glm::dvec2>> vogel_offsets(
-      const std::vector<std::pair<int, float>>& count_rotation) {
-    ShaderFunction<glm::vec2(int32_t, int32_t, float)> f("penumbra/noise.glsl",
-                                                         "vogel_disk_sample");
-    std::vector<std::tuple<int32_t, int32_t, float>> in;
-    for (auto [n, rot] : count_rotation)
-      for (int i = 0; i < n; ++i) in.emplace_back(i, n, rot);
     const auto got = f.run(in);
     std::vector<std::vector<glm::dvec2>> out;
     size_t k = 0;

@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "reference/filter_ref.hpp"
+#include "vogel_offsets.hpp"
 
 PENUMBRA_GLSL_STRUCT(penumbra::filter_ref::PcssParams, "PcssParams", tan_half_angle,
                      texel_world_size, depth_near, depth_far, max_search_texels, min_filter_texels,
@@ -128,25 +129,6 @@ class PcssTest : public GpuTest {
     return 2.0 * std::ldexp(1.0, -static_cast<int>(ctx().info().limits.subTexelPrecisionBits));
   }
   static double filter_bound() { return tap_bound() + 2e-4; }
-
-  // Unit-disk offsets of Vogel tap sets (count, rotation), read back from noise.glsl (tested
-  // there), so the reference checks the search and the filtering, not the spiral.
-  static std::vector<std::vector<glm::dvec2>> vogel_offsets(
-      const std::vector<std::pair<int, float>>& sets) {
-    ShaderFunction<glm::vec2(int32_t, int32_t, float)> f("penumbra/noise.glsl",
-                                                         "vogel_disk_sample");
-    std::vector<std::tuple<int32_t, int32_t, float>> in;
-    for (auto [n, rot] : sets)
-      for (int i = 0; i < n; ++i) in.emplace_back(i, n, rot);
-    const auto got = f.run(in);
-    std::vector<std::vector<glm::dvec2>> out;
-    size_t k = 0;
-    for (auto [n, rot] : sets) {
-      out.emplace_back();
-      for (int i = 0; i < n; ++i) out.back().push_back(glm::dvec2(got[k++]));
-    }
-    return out;
-  }
 };
 
 TEST_F(PcssTest, TiersGiveTheirTapCountsAndClamp) {
@@ -563,7 +545,8 @@ TEST_F(PcssTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversOwnSurf
   const glm::vec2 texel(1.0f / float(n));
   for (float radius : {6.0f, 10.0f}) {
     SCOPED_TRACE("radius " + std::to_string(radius));
-    const auto [flat_avg, flat_count] = search(coord, 0, radius, 64, 0.2f, texel, false, glm::vec2(0.0f));
+    const auto [flat_avg, flat_count] =
+        search(coord, 0, radius, 64, 0.2f, texel, false, glm::vec2(0.0f));
     EXPECT_GT(flat_count, 20) << "the plane's near half";
     const auto [avg, count] = search(coord, 0, radius, 64, 0.2f, texel, false, g);
     EXPECT_EQ(count, 0);
