@@ -4,4 +4,5 @@ set(PENUMBRA_TESTING_EXTRA_SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/values.cpp
     ${CMAKE_CURRENT_LIST_DIR}/compare.cpp
     ${CMAKE_CURRENT_LIST_DIR}/generators.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/property.cpp)
+    ${CMAKE_CURRENT_LIST_DIR}/property.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/interval.cpp)

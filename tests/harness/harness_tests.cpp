@@ -13,6 +13,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <random>
 
@@ -87,6 +88,58 @@ TEST_F(HarnessTest, ScalarFunctionOverThousandsOfCasesInOneBatch) {
   const auto got = f.run(cases);
   ASSERT_EQ(got.size(), cases.size());
   PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::ulps(1, 1e-3));
+}
+
+// The spec-derived intervals on the device: a * b + c (fused or not), the same `precise` (no
+// fusing: only the unfused roundings), a * b and a / b all lie in their intervals; one float
+// beyond the product's interval is caught.
+TEST_F(HarnessTest, DeviceResultsLieInTheSpecIntervals) {
+  ShaderFunction<float(float, float, float)> mul_add(kFuncs, "mul_add");
+  ShaderFunction<float(float, float, float)> mul_add_precise(kFuncs, "mul_add_precise");
+  ShaderFunction<float(float, float)> mul(kFuncs, "mul2");
+  ShaderFunction<float(float, float)> div(kFuncs, "div2");
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-4.0f, 4.0f);
+  std::uniform_int_distribution<int> e(-20, 20);
+  std::vector<std::tuple<float, float, float>> cases(8192);
+  for (auto& c : cases) {
+    const float a = std::ldexp(u(rng), e(rng)), b = std::ldexp(u(rng), e(rng));
+    // c near -a b, where a fused result differs most from an unfused one.
+    const float addend = (rng() & 1u) != 0 ? -a * b * (1.0f + std::ldexp(u(rng), -10)) : u(rng);
+    c = {a, b, addend};
+  }
+  cases[0] = {1.0f + 0x1p-12f, 1.0f + 0x1p-12f, -1.0f};
+  std::vector<std::tuple<float, float>> pairs;
+  for (const auto& [a, b, c] : cases) pairs.emplace_back(a, b);
+  std::vector<Interval> loose, precise, product, quotient;
+  for (const auto& [a, b, c] : cases) {
+    const auto f = [&] { return Interval(a) * Interval(b) + Interval(c); };
+    loose.push_back(spec_interval(f));
+    precise.push_back(spec_interval(f, {.precise = true}));
+    product.push_back(Interval(a) * Interval(b));
+    quotient.push_back(Interval(a) / Interval(b));
+  }
+  const auto describe = [&](std::size_t i) { return format_tuple(cases[i]); };
+  const std::vector<float> fused = mul_add.run(cases);
+  const std::vector<float> unfused = mul_add_precise.run(cases);
+  PENUMBRA_EXPECT_ALL_WITHIN(loose, fused, describe);
+  PENUMBRA_EXPECT_ALL_WITHIN(precise, unfused, describe);
+  std::size_t contracted = 0;
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const auto [a, b, c] = cases[i];
+    contracted += fused[i] == std::fma(a, b, c) && fused[i] != a * b + c;
+  }
+  std::printf("[spec-interval] mul_add: %zu of %zu results are a fused multiply-add's\n",
+              contracted, cases.size());
+  std::vector<float> products = mul.run(pairs);
+  PENUMBRA_EXPECT_ALL_WITHIN(product, products, describe);
+  PENUMBRA_EXPECT_ALL_WITHIN(quotient, div.run(pairs), describe);
+  // One float above the product's interval in one case: caught, 1 float outside.
+  products[5] = std::nextafter(static_cast<float>(product[5].hi()), INFINITY);
+  const WithinResult caught = compare_within(product, products, describe);
+  EXPECT_FALSE(caught.passed);
+  EXPECT_EQ(caught.failing_cases, 1u);
+  EXPECT_EQ(caught.max_outside, 1u) << caught.report;
 }
 
 TEST_F(HarnessTest, Vec3AfterFloatIsPaddedTo16) {

@@ -132,3 +132,13 @@ float print_and_square(float x) {
 }
 
 #endif
+
+// For the spec-interval tests: a contractible a * b + c, the same `precise`, a product, a
+// quotient.
+float mul_add(float a, float b, float c) { return a * b + c; }
+float mul_add_precise(float a, float b, float c) {
+  precise float r = a * b + c;
+  return r;
+}
+float mul2(float a, float b) { return a * b; }
+float div2(float a, float b) { return a / b; }
