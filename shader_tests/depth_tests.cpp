@@ -17,6 +17,7 @@
 #include <limits>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/generators.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <penumbra/testing/property.hpp>
 #include <penumbra/testing/shader_function.hpp>
@@ -26,6 +27,7 @@
 
 #include "reference/depth_ref.hpp"
 #include "reference/noise_ref.hpp"
+#include "spec_check.hpp"
 
 namespace penumbra::testing {
 namespace {
@@ -114,23 +116,65 @@ std::string describe_case(const std::tuple<float, float, float, bool>& c) {
   return format_value(x) + " (" + describe_planes(near, far, reverse_z) + ")";
 }
 
+// The shader's formulas (depth.glsl), as templates: in double they give the value, on Interval
+// what the spec allows a device to return for them.
+template <class T>
+T saturate_depth_formula(T d, bool reverse_z) {
+  using namespace glsl;
+  if (d >= T(0.0f)) return min(d, T(1.0f));
+  return d < T(0.0f) ? T(0.0f) : (reverse_z ? T(0.0f) : T(1.0f));
+}
+template <class T>
+T linearize_depth_formula(T d, T near, T far, bool reverse_z) {
+  const T s = saturate_depth_formula(d, reverse_z);
+  const T w_far = reverse_z ? s : T(1.0f) - s;
+  const T w_near = reverse_z ? T(1.0f) - s : s;
+  return (near * far) / (far * w_far + near * w_near);
+}
+template <class T>
+T view_distance_to_depth_formula(T z, T near, T far, bool reverse_z) {
+  using namespace glsl;
+  const T range = far - near;
+  const T float_max(std::numeric_limits<float>::max());
+  if (!(z <= float_max)) return reverse_z ? -near / range : far / range;
+  const T num = reverse_z ? near * (far - z) : far * (z - near);
+  const T den = z * range;
+  if (abs(num) <= float_max && den <= float_max) return num / den;
+  return reverse_z ? (near / range) * ((far - z) / z) : (far / range) * ((z - near) / z);
+}
+
 // ---------------------------------------------------------------------------------------------
 // Linearization and its inverse
 
+// The device result lies in the interval the Vulkan spec allows for the shader's formula (below,
+// mirrored as a template), and that interval holds the exact inverse of the projection
+// (reference/depth_ref.hpp): the first checks the device, the second the formula. The hand bound
+// used before (6.5 * 2^-23 relative) is audited against the interval.
 TEST_F(DepthTest, LinearizeDepthMatchesProjectionInverse) {
   ShaderFunction<float(float, float, float, bool)> linearize(kDepth, "linearize_depth");
   const auto cases = depth_cases(0xDE9701, 4096);
   const std::vector<float> got = linearize.run(cases);
-  std::vector<double> want, actual, bounds;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const auto [d, near, far, reverse_z] = cases[i];
-    const ref::BoundedValue z = ref::linearize_expectation(d, near, far, reverse_z, kLinearizeRel);
-    want.push_back(z.value);
-    actual.push_back(got[i]);
-    bounds.push_back(z.bound);
+  std::vector<Interval> accepted;
+  for (const auto& [d, near, far, reverse_z] : cases) {
+    accepted.push_back(
+        spec_interval([&] { return linearize_depth_formula<Interval>(d, near, far, reverse_z); }));
   }
-  EXPECT_TRUE(ref::all_within_bounds(want, actual, bounds,
-                                     [&](size_t i) { return "d = " + describe_case(cases[i]); }));
+  EXPECT_TRUE(expect_within_spec(
+      {.name = "depth.linearize_depth",
+       .exact =
+           [&](size_t i) {
+             const auto [d, near, far, reverse_z] = cases[i];
+             const double clamped = std::clamp(double{d}, 0.0, 1.0);
+             return static_cast<double>(
+                 ref::view_distance_from_depth(clamped, near, far, reverse_z));
+           },
+       .old_bound =
+           [&](size_t i) {
+             const auto [d, near, far, reverse_z] = cases[i];
+             return ref::linearize_expectation(d, near, far, reverse_z, kLinearizeRel).bound;
+           },
+       .describe = [&](size_t i) { return "d = " + describe_case(cases[i]); }},
+      accepted, got));
 }
 
 TEST_F(DepthTest, LinearizeDepthInfiniteMatchesProjectionInverse) {
@@ -166,16 +210,21 @@ TEST_F(DepthTest, ViewDistanceToDepthMatchesProjection) {
   ShaderFunction<float(float, float, float, bool)> to_depth(kDepth, "view_distance_to_depth");
   const auto cases = distance_cases(0xDE9703, 4096);
   const std::vector<float> got = to_depth.run(cases);
-  std::vector<double> want, actual, bounds;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const auto [z, near, far, reverse_z] = cases[i];
-    const double d = static_cast<double>(ref::depth_from_view_distance(z, near, far, reverse_z));
-    want.push_back(d);
-    actual.push_back(got[i]);
-    bounds.push_back(kLinearizeRel * std::fabs(d));
+  std::vector<Interval> accepted;
+  for (const auto& [z, near, far, reverse_z] : cases) {
+    accepted.push_back(spec_interval(
+        [&] { return view_distance_to_depth_formula<Interval>(z, near, far, reverse_z); }));
   }
-  EXPECT_TRUE(ref::all_within_bounds(want, actual, bounds,
-                                     [&](size_t i) { return "z = " + describe_case(cases[i]); }));
+  const auto exact = [&](size_t i) {
+    const auto [z, near, far, reverse_z] = cases[i];
+    return static_cast<double>(ref::depth_from_view_distance(z, near, far, reverse_z));
+  };
+  EXPECT_TRUE(expect_within_spec(
+      {.name = "depth.view_distance_to_depth",
+       .exact = exact,
+       .old_bound = [&](size_t i) { return kLinearizeRel * std::fabs(exact(i)); },
+       .describe = [&](size_t i) { return "z = " + describe_case(cases[i]); }},
+      accepted, got));
 }
 
 TEST_F(DepthTest, ViewDistanceToDepthInfiniteMatchesProjection) {
