@@ -56,13 +56,15 @@ std::shared_ptr<Texture> cube_texture(int cubes, int n, const CubeFill& f, bool 
   return make_depth_texture(d, fill_cubes(cubes, n, f));
 }
 
-using PcfCube = ShaderFunction<float(SamplerCubeArrayShadow, glm::vec3, int32_t, float, int32_t, float)>;
+using PcfCube =
+    ShaderFunction<float(SamplerCubeArrayShadow, glm::vec3, int32_t, float, int32_t, float)>;
 using VogelCube = ShaderFunction<float(SamplerCubeArrayShadow, glm::vec3, int32_t, float, int32_t,
                                        float, float, float)>;
 using SearchCube = ShaderFunction<void(SamplerCubeArray, glm::vec3, int32_t, float, float, int32_t,
                                        float, float, bool, Out<float>, Out<int32_t>)>;
-using PcssCube = ShaderFunction<float(SamplerCubeArrayShadow, SamplerCubeArray, glm::vec3, int32_t,
-                                      float, float, float, Params, int32_t, float, bool, glm::vec3)>;
+using PcssCube =
+    ShaderFunction<float(SamplerCubeArrayShadow, SamplerCubeArray, glm::vec3, int32_t, float, float,
+                         float, Params, int32_t, float, bool, glm::vec3)>;
 using PlaneSearchCube =
     ShaderFunction<void(SamplerCubeArray, glm::vec3, int32_t, float, float, int32_t, float, float,
                         bool, glm::vec3, float, Out<float>, Out<int32_t>)>;
@@ -109,9 +111,12 @@ TEST_F(CubeShadowTest, PcfTapsAreOneTexelApartOnTheFace) {
   for (int q : {0, 1, 3}) {
     SCOPED_TRACE("q = " + std::to_string(q));
     PcfCube pcf(kLocal, "pcf_cube_array");
-    pcf.bind(0, cube_texture(2, n, [&](int c, int face, int col, int) {
-      return c == 1 && face == 4 && col < n / 2 - q ? 0.0f : 1.0f;
-    }, true));
+    pcf.bind(0, cube_texture(
+                    2, n,
+                    [&](int c, int face, int col, int) {
+                      return c == 1 && face == 4 && col < n / 2 - q ? 0.0f : 1.0f;
+                    },
+                    true));
     std::vector<std::tuple<glm::vec3, int32_t, float, int32_t, float>> cases;
     for (int r = -2; r <= 7; ++r) {
       cases.emplace_back(glm::vec3(0, 0, 1), 1, 0.5f, r, float(n));
@@ -124,8 +129,8 @@ TEST_F(CubeShadowTest, PcfTapsAreOneTexelApartOnTheFace) {
       double lit = 0.0;
       for (int i = -r; i <= r; ++i) lit += i >= 1 - q ? 1.0 : (i == -q ? 0.5 : 0.0);
       const double want = std::get<1>(cases[k]) == 0 ? 1.0 : lit / (2 * r + 1);
-      EXPECT_NEAR(got[k], want, 1e-6) << "radius " << std::get<3>(cases[k]) << ", cube "
-                                      << std::get<1>(cases[k]);
+      EXPECT_NEAR(got[k], want, 1e-6)
+          << "radius " << std::get<3>(cases[k]) << ", cube " << std::get<1>(cases[k]);
     }
   }
 }
@@ -167,9 +172,11 @@ TEST_F(CubeShadowTest, UniformCubesAreExactlyLitOrShadowedAtEdgesAndCorners) {
   for (int x = -1; x <= 1; ++x)
     for (int y = -1; y <= 1; ++y)
       for (int z = -1; z <= 1; ++z)
-        if (x || y || z) dirs.emplace_back(float(x), float(y), float(z));  // centres, edges, corners
+        if (x || y || z)
+          dirs.emplace_back(float(x), float(y), float(z));  // centres, edges, corners
   Rng rng(1701);
-  for (int i = 0; i < 200; ++i) dirs.push_back(unit_vector3()(rng) * float(0.01 + 100.0 * rng.next_unit()));
+  for (int i = 0; i < 200; ++i)
+    dirs.push_back(unit_vector3()(rng) * float(0.01 + 100.0 * rng.next_unit()));
   std::vector<std::tuple<glm::vec3, int32_t, float, int32_t, float>> pcf_cases;
   std::vector<std::tuple<glm::vec3, int32_t, float, int32_t, float, float, float>> vogel_cases;
   std::vector<float> want;
@@ -264,10 +271,10 @@ TEST_F(CubeShadowTest, BadInputIsLitAndFindsNoBlocker) {
   auto& [pcf, vogel, search, pcss] = cube;
   const Params p = sphere_light_params(n);
   const std::vector<std::tuple<glm::vec3, float, float>> bad = {
-      {{0, 0, 0}, 0.5f, float(n)},        {{1e-30f, 0, 0}, 0.5f, float(n)},
-      {{kNan, 1, 0}, 0.5f, float(n)},     {{kInf, 0, 0}, 0.5f, float(n)},
-      {{0, 1, 0}, kNan, float(n)},        {{0, 1, 0}, 0.5f, 0.0f},
-      {{0, 1, 0}, 0.5f, -4.0f},           {{0, 1, 0}, 0.5f, kNan}};
+      {{0, 0, 0}, 0.5f, float(n)},    {{1e-30f, 0, 0}, 0.5f, float(n)},
+      {{kNan, 1, 0}, 0.5f, float(n)}, {{kInf, 0, 0}, 0.5f, float(n)},
+      {{0, 1, 0}, kNan, float(n)},    {{0, 1, 0}, 0.5f, 0.0f},
+      {{0, 1, 0}, 0.5f, -4.0f},       {{0, 1, 0}, 0.5f, kNan}};
   for (const auto& [d, ref, res] : bad) {
     SCOPED_TRACE(format_tuple(std::make_tuple(d, ref, res)));
     EXPECT_EQ(pcf(d, 0, ref, 1, res), 1.0f);
@@ -286,19 +293,25 @@ TEST_F(CubeShadowTest, BadInputIsLitAndFindsNoBlocker) {
 glm::dvec3 texel_direction(int face, int col, int row, int n) {
   const double a = 2.0 * (col + 0.5) / n - 1.0, b = 2.0 * (row + 0.5) / n - 1.0;
   switch (face) {
-    case 0: return {1.0, -b, -a};
-    case 1: return {-1.0, -b, a};
-    case 2: return {a, 1.0, b};
-    case 3: return {a, -1.0, -b};
-    case 4: return {a, -b, 1.0};
-    default: return {-a, -b, -1.0};
+    case 0:
+      return {1.0, -b, -a};
+    case 1:
+      return {-1.0, -b, a};
+    case 2:
+      return {a, 1.0, b};
+    case 3:
+      return {a, -1.0, -b};
+    case 4:
+      return {a, -b, 1.0};
+    default:
+      return {-a, -b, -1.0};
   }
 }
 
 // A point light 1 m above a floor (y = -1), its cube (256 texels per face) storing the floor's
-// distance (standard depth, near 0.1, far 10) and, in cube 0 only, a box of blockers half-way to part of it. A
-// receiver on the floor seen at 64 degrees from its normal: the flat search finds the floor
-// itself nearer the light across the disk; the search against the floor's plane finds nothing
+// distance (standard depth, near 0.1, far 10) and, in cube 0 only, a box of blockers half-way to
+// part of it. A receiver on the floor seen at 64 degrees from its normal: the flat search finds the
+// floor itself nearer the light across the disk; the search against the floor's plane finds nothing
 // but the real blockers.
 TEST_F(CubeShadowTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversOwnSurface) {
   constexpr int n = 256;
@@ -331,8 +344,8 @@ TEST_F(CubeShadowTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversO
   const glm::vec3 up(0, 1, 0), none(0.0f);
   for (const float radius : {8.0f, 16.0f}) {
     SCOPED_TRACE("radius " + std::to_string(radius));
-    const auto [flat_avg, flat_count] = search(dir, 1, ref, radius, 64, 0.3f, float(n), false, none,
-                                               inv_range);
+    const auto [flat_avg, flat_count] =
+        search(dir, 1, ref, radius, 64, 0.3f, float(n), false, none, inv_range);
     EXPECT_GT(flat_count, 16) << "the floor's near half, found by the flat search";
     const auto [plane_avg, plane_count] =
         search(dir, 1, ref, radius, 64, 0.3f, float(n), false, up, inv_range);

@@ -17,8 +17,8 @@
 #include <limits>
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/generators.hpp>
-#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/property.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <string>
@@ -631,7 +631,8 @@ TEST_F(DepthTest, RayPlanePointFollowsTheRayToTheReceiverPlaneWithinItsCap) {
   std::vector<Kind> kinds;
   for (int kind = hit; kind <= behind; ++kind) {
     for (int i = 0; i < 2048;) {
-      const glm::dvec3 eye = unit() * std::pow(1e4, rng.next_unit()) * (rng.bernoulli(0.3) ? 0.0 : 1.0);
+      const glm::dvec3 eye =
+          unit() * std::pow(1e4, rng.next_unit()) * (rng.bernoulli(0.3) ? 0.0 : 1.0);
       const glm::dvec3 view = unit();
       const glm::dvec3 p = eye + view * (0.1 * std::pow(1e3, rng.next_unit()));
       // A neighbouring pixel's point: a small step across the view ray.

@@ -360,7 +360,8 @@ TEST_F(FilterExtremesTest, VsmZeroVarianceAndReceiverAtTheMean) {
 // difference between them still leaves the factor within 1e-3 of 1.
 TEST_F(FilterExtremesTest, EvsmReceiverAtTheStoredDepthIsLit) {
   Rng rng(508);
-  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl",
+                                                                  "evsm_moments");
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
   std::vector<std::tuple<float, glm::vec2, bool, bool>> in;
@@ -390,7 +391,8 @@ TEST_F(FilterExtremesTest, EvsmReceiverAtTheStoredDepthIsLit) {
 // forgets the format gets), the same depths' moments rounded to halves lose their variance to
 // the rounding and leave receivers in the dark (78 of these 90 come out lit).
 TEST_F(FilterExtremesTest, EvsmMomentsInAnFp16MapKeepAReceiverAtTheStoredDepthLit) {
-  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl",
+                                                                  "evsm_moments");
   Evsm2Fn evsm2("penumbra/vsm.glsl", "evsm2_shadow");
   Evsm4Fn evsm4("penumbra/vsm.glsl", "evsm4_shadow");
   auto lit_counts = [&](bool fp16) {
@@ -421,8 +423,8 @@ TEST_F(FilterExtremesTest, EvsmMomentsInAnFp16MapKeepAReceiverAtTheStoredDepthLi
   EXPECT_EQ(with_format.second, n) << "EVSM4, fp16 moments read as fp16";
   const auto [without_format, n32] = lit_counts(false);
   EXPECT_LT(without_format.first, n32)
-      << "EVSM2: fp16 moments written and read as fp32: " << without_format.first << " of "
-      << n32 << " lit";
+      << "EVSM2: fp16 moments written and read as fp32: " << without_format.first << " of " << n32
+      << " lit";
   // (EVSM4 hides it here: its moments overflow fp16 to infinity, and non-finite moments count
   // as lit.)
   std::printf("fp16 moments told fp32: EVSM2 %zu of %zu lit, EVSM4 %zu\n", without_format.first,
@@ -468,7 +470,8 @@ TEST_F(FilterExtremesTest, EvsmExponentsClampPerMomentFormat) {
   PENUMBRA_EXPECT_ALL_NEAR(want, clamp_fn.run(in), Tolerance::exact());
 
   // Moments at the far plane (the warp's maximum) and the near plane (the negative warp's).
-  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl", "evsm_moments");
+  ShaderFunction<glm::vec4(float, glm::vec2, bool, bool)> moments("penumbra/vsm.glsl",
+                                                                  "evsm_moments");
   std::vector<std::tuple<float, glm::vec2, bool, bool>> mc;
   for (bool rz : {true, false})
     for (float d : {0.0f, 1.0f}) mc.emplace_back(d, glm::vec2(5.54f), rz, true);

@@ -20,11 +20,13 @@
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/generators.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <tuple>
 #include <vector>
 
 #include "reference/noise_ref.hpp"
+#include "spec_check.hpp"
 
 namespace penumbra::testing {
 namespace {
@@ -74,6 +76,20 @@ class NoiseTest : public GpuTest {};
 // ---------------------------------------------------------------------------------------------
 // Interleaved gradient noise
 
+// interleaved_gradient_noise as noise.glsl writes it (inner and outer are `precise`).
+template <class T>
+T ign_formula(T x, T y) {
+  using namespace glsl;
+  const T inner = T(ref::kIgnA) * x + T(ref::kIgnB) * y;
+  const T outer = T(ref::kIgnC) * fract(inner);
+  const T noise = fract(outer);
+  return (noise >= T(0.0f) && noise < T(1.0f)) ? noise : T(0.0f);
+}
+
+// The device lies in the spec's interval for the shader's formula, evaluated as `precise` (the
+// set of results of every rounding direction, no fused multiply-add); the interval holds the
+// published formula's exact value (modulo 1: where the interval crosses an integer it is all of
+// [0, 1]); the hand bound is audited where it is not a wrap.
 TEST_F(NoiseTest, IgnMatchesPublishedFormulaWithinDerivedBound) {
   ShaderFunction<float(glm::vec2)> ign(kNoise, "interleaved_gradient_noise");
   Rng rng(0x16A001);
@@ -83,16 +99,27 @@ TEST_F(NoiseTest, IgnMatchesPublishedFormulaWithinDerivedBound) {
   const auto cases =
       generate_cases(rng, 20000, mix(centre, 0.7, uniform<glm::vec2>(0.0f, 4096.0f)));
   const std::vector<float> got = ign.run(cases);
-
-  std::vector<double> errors, bounds;
-  for (size_t i = 0; i < cases.size(); ++i) {
-    const glm::vec2 p = std::get<0>(cases[i]);
-    errors.push_back(ref::circular_distance(ref::ign(p.x, p.y), got[i]));
-    bounds.push_back(ign_bound(p.x, p.y));
+  std::vector<Interval> accepted, enclosures;
+  for (const auto& [p] : cases) {
+    const auto formula = [&] { return ign_formula<Interval>(p.x, p.y); };
+    accepted.push_back(spec_interval(formula, {.precise = true}));
+    enclosures.push_back(spec_interval(formula));
   }
-  EXPECT_TRUE(ref::errors_within_bounds(errors, bounds, [&](size_t i) {
-    return format_tuple(cases[i]) + " -> " + format_value(got[i]);
-  }));
+  EXPECT_TRUE(expect_within_spec({.name = "noise.interleaved_gradient_noise",
+                                  .exact =
+                                      [&](size_t i) {
+                                        const glm::vec2 p = std::get<0>(cases[i]);
+                                        return ref::ign(p.x, p.y);
+                                      },
+                                  .old_bound =
+                                      [&](size_t i) {
+                                        const glm::vec2 p = std::get<0>(cases[i]);
+                                        return accepted[i].hi() - accepted[i].lo() > 0.5
+                                                   ? NAN
+                                                   : ign_bound(p.x, p.y);
+                                      },
+                                  .describe = [&](size_t i) { return format_tuple(cases[i]); }},
+                                 accepted, got, enclosures));
 }
 
 // The shader evaluates IGN with `precise` (no fused multiply-add), so every device that rounds
@@ -367,6 +394,16 @@ TEST_F(NoiseTest, Rotate2MatchesDoubleRotation) {
 }
 
 // rotate2_cos_sin(v, (c, s)) is plain arithmetic: two products and a sum per component.
+// rotate2_cos_sin as noise.glsl writes it, per component.
+template <class T>
+T rotate_x_formula(T x, T y, T c, T s) {
+  return c * x - s * y;
+}
+template <class T>
+T rotate_y_formula(T x, T y, T c, T s) {
+  return s * x + c * y;
+}
+
 TEST_F(NoiseTest, Rotate2CosSinMatchesDoubleRotation) {
   ShaderFunction<glm::vec2(glm::vec2, glm::vec2)> rotate(kNoise, "rotate2_cos_sin");
   Rng rng(0x207A7F);
@@ -374,21 +411,34 @@ TEST_F(NoiseTest, Rotate2CosSinMatchesDoubleRotation) {
       rng, 20000, uniform<glm::vec2>(-10.0f, 10.0f),
       map(uniform(-4.0f, 4.0f), [](float a) { return glm::vec2(std::cos(a), std::sin(a)); }));
   const std::vector<glm::vec2> got = rotate.run(cases);
-  std::vector<double> want, actual, bounds;
+  std::vector<Interval> accepted;
+  std::vector<float> actual;
   for (size_t i = 0; i < cases.size(); ++i) {
     const auto [v, cs] = cases[i];
-    const double x = double{cs.x} * v.x - double{cs.y} * v.y;
-    const double y = double{cs.y} * v.x + double{cs.x} * v.y;
-    const double terms_x = std::fabs(double{cs.x} * v.x) + std::fabs(double{cs.y} * v.y);
-    const double terms_y = std::fabs(double{cs.y} * v.x) + std::fabs(double{cs.x} * v.y);
-    // Each product rounded, then the sum: < 2^-23 of each term, and of the result (<= terms).
-    want.insert(want.end(), {x, y});
+    accepted.push_back(
+        spec_interval([&] { return rotate_x_formula<Interval>(v.x, v.y, cs.x, cs.y); }));
+    accepted.push_back(
+        spec_interval([&] { return rotate_y_formula<Interval>(v.x, v.y, cs.x, cs.y); }));
     actual.insert(actual.end(), {got[i].x, got[i].y});
-    bounds.insert(bounds.end(), {2.0 * kRoundingRel * terms_x, 2.0 * kRoundingRel * terms_y});
   }
-  EXPECT_TRUE(ref::all_within_bounds(want, actual, bounds, [&](size_t k) {
-    return format_tuple(cases[k / 2]) + (k % 2 == 0 ? " .x" : " .y");
-  }));
+  // The hand bound: each product rounded, then the sum: < 2^-23 of each term, and of the result.
+  const auto terms = [&](size_t k) {
+    const auto [v, cs] = cases[k / 2];
+    return k % 2 == 0 ? std::fabs(double{cs.x} * v.x) + std::fabs(double{cs.y} * v.y)
+                      : std::fabs(double{cs.y} * v.x) + std::fabs(double{cs.x} * v.y);
+  };
+  EXPECT_TRUE(expect_within_spec(
+      {.name = "noise.rotate2_cos_sin",
+       .exact =
+           [&](size_t k) {
+             const auto [v, cs] = cases[k / 2];
+             return k % 2 == 0 ? double{cs.x} * v.x - double{cs.y} * v.y
+                               : double{cs.y} * v.x + double{cs.x} * v.y;
+           },
+       .old_bound = [&](size_t k) { return 2.0 * kRoundingRel * terms(k); },
+       .describe =
+           [&](size_t k) { return format_tuple(cases[k / 2]) + (k % 2 == 0 ? " .x" : " .y"); }},
+      accepted, actual));
 }
 
 // ---------------------------------------------------------------------------------------------

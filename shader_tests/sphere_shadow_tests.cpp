@@ -73,8 +73,8 @@ TEST_F(SphereShadowTest, TheEndsAreExactAndBadInputIsLit) {
       {0.0f, 0.2f, 0.1999f},   // a point light: hidden
       {0.0f, 0.2f, 0.2001f},   // a point light: seen
       {0.2f, 0.1f, 0.05f},     // the occluder inside the light: (sin(b/2) / sin(a/2))^2
-      {nan, 0.2f, 0.1f},       {0.1f, nan, 0.1f}, {0.1f, 0.2f, nan},
-      {0.1f, 0.0f, 0.0f},      // an occluder of no size
+      {nan, 0.2f, 0.1f},      {0.1f, nan, 0.1f},
+      {0.1f, 0.2f, nan},      {0.1f, 0.0f, 0.0f},  // an occluder of no size
   };
   const double inside = std::pow(std::sin(0.05) / std::sin(0.1), 2.0);
   const std::vector<float> expected{0, 0, 1, 1, 1, 0, float(inside), 0, 0, 0, 0};
@@ -83,9 +83,9 @@ TEST_F(SphereShadowTest, TheEndsAreExactAndBadInputIsLit) {
 
 TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
   ShaderFunction<float(glm::vec3, glm::vec3, float, glm::vec4)> light(kSphere,
-                                                                        "sphere_light_occlusion");
+                                                                      "sphere_light_occlusion");
   ShaderFunction<float(glm::vec3, glm::vec3, float, glm::vec4)> sun(kSphere,
-                                                                     "sun_sphere_occlusion");
+                                                                    "sun_sphere_occlusion");
   Rng rng(977);
   std::vector<std::tuple<glm::vec3, glm::vec3, float, glm::vec4>> lc, sc;
   std::vector<float> le, se;
@@ -96,8 +96,8 @@ TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
   };
   for (int i = 0; i < 2000; ++i) {
     // A receiver near an occluder, the light beyond it along a direction near the occluder's.
-    const glm::dvec3 p = 20.0 * (glm::dvec3(rng.next_unit(), rng.next_unit(), rng.next_unit()) -
-                                 0.5);
+    const glm::dvec3 p =
+        20.0 * (glm::dvec3(rng.next_unit(), rng.next_unit(), rng.next_unit()) - 0.5);
     const double r = log_uniform(rng, 0.05, 3.0);
     const double d = r * (i % 10 == 0 ? 1.0 : 1.0 + log_uniform(rng, 1e-3, 20.0));
     const glm::dvec3 toward = unit();
@@ -132,8 +132,8 @@ TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
     const glm::dvec3 o = d * glm::dvec3(std::sin(g), 0.0, std::cos(g));
     const glm::vec4 sphere{glm::vec3(o), float(d * std::sin(b))};
     tc.emplace_back(glm::vec3(0.0f), glm::vec3(dir), float(a), sphere);
-    te.push_back(float(sphere_ref::sun_sphere_occlusion(glm::dvec3(0.0), dir, float(a),
-                                                        glm::vec3(o), sphere.w)));
+    te.push_back(float(
+        sphere_ref::sun_sphere_occlusion(glm::dvec3(0.0), dir, float(a), glm::vec3(o), sphere.w)));
   }
   PENUMBRA_EXPECT_ALL_NEAR(te, sun.run(tc), Tolerance::absolute(kTolerance));
   // An occluder wholly beyond the light hides nothing; a receiver at its centre is hidden.

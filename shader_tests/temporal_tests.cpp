@@ -65,8 +65,8 @@ TEST_F(TemporalTest, OctahedralEncodingMatchesTheReferenceAndRoundTrips) {
 // Zero and non-finite vectors encode to (0, 0), which decodes to +Z: no NaN reaches the history.
 TEST_F(TemporalTest, DegenerateNormalsEncodeToTheOrigin) {
   ShaderFunction<glm::vec2(glm::vec3)> encode(kTemporal, "oct_encode");
-  for (const glm::vec3 n : {glm::vec3(0.0f), glm::vec3(kNaN, 0, 1), glm::vec3(kInf, 0, 0),
-                            glm::vec3(0, -kInf, 1)})
+  for (const glm::vec3 n :
+       {glm::vec3(0.0f), glm::vec3(kNaN, 0, 1), glm::vec3(kInf, 0, 0), glm::vec3(0, -kInf, 1)})
     EXPECT_EQ(encode(n), glm::vec2(0.0f)) << format_value(n);
   ShaderFunction<glm::vec3(glm::vec2)> decode(kTemporal, "oct_decode");
   EXPECT_EQ(decode(glm::vec2(0.0f)), glm::vec3(0, 0, 1));
@@ -76,7 +76,7 @@ TEST_F(TemporalTest, DegenerateNormalsEncodeToTheOrigin) {
 // front of and behind the camera, against the reference in double.
 TEST_F(TemporalTest, ReprojectionMatchesTheProjection) {
   ShaderFunction<glm::vec3(glm::mat4, glm::vec3, glm::vec2)> reproject(kTemporal,
-                                                                        "temporal_reproject");
+                                                                       "temporal_reproject");
   Rng rng(0x7E3902);
   std::vector<std::tuple<glm::mat4, glm::vec3, glm::vec2>> cases;
   for (int i = 0; i < 2048; ++i) {
@@ -119,9 +119,10 @@ TEST_F(TemporalTest, SameSurfaceTestMatchesTheReference) {
   size_t compared = 0, inside = 0;
   for (size_t i = 0; i < cases.size(); ++i) {
     const auto& [stored, m, expected, n, fraction, constant, min_cos] = cases[i];
-    const double margin = ref::same_surface_margin(stored, glm::dvec3(m), expected,
-                                                   glm::dvec3(n), fraction, constant, min_cos);
-    if (std::abs(margin) < 1e-5 * std::max(1.0, double(expected))) continue;  // within rounding of the bound
+    const double margin = ref::same_surface_margin(stored, glm::dvec3(m), expected, glm::dvec3(n),
+                                                   fraction, constant, min_cos);
+    if (std::abs(margin) < 1e-5 * std::max(1.0, double(expected)))
+      continue;  // within rounding of the bound
     ++compared;
     inside += margin > 0.0;
     EXPECT_EQ(got[i], margin > 0.0) << format_tuple(cases[i]) << " margin " << margin;
@@ -141,7 +142,8 @@ TEST_F(TemporalTest, BlendClampsTheHistoryThenMovesTowardsTheCurrentValue) {
   using Case = std::tuple<glm::vec4, glm::vec4, glm::vec4, glm::vec4, float>;
   std::vector<Case> cases;
   for (int i = 0; i < 4096; ++i) {
-    const glm::vec4 a = uniform<glm::vec4>(0.0f, 1.0f)(rng), b = uniform<glm::vec4>(0.0f, 1.0f)(rng);
+    const glm::vec4 a = uniform<glm::vec4>(0.0f, 1.0f)(rng),
+                    b = uniform<glm::vec4>(0.0f, 1.0f)(rng);
     glm::vec4 current = uniform<glm::vec4>(0.0f, 1.0f)(rng);
     const glm::vec4 lo = glm::min(glm::min(a, b), current), hi = glm::max(glm::max(a, b), current);
     glm::vec4 history = uniform<glm::vec4>(-0.5f, 1.5f)(rng);
@@ -162,8 +164,8 @@ TEST_F(TemporalTest, BlendClampsTheHistoryThenMovesTowardsTheCurrentValue) {
                         std::isfinite(history.z) && std::isfinite(history.w);
     glm::vec4 w;
     for (int c = 0; c < 4; ++c)
-      w[c] = float(ref::temporal_blend(finite ? history[c] : kNaN, current[c], lo[c], hi[c],
-                                       weight));
+      w[c] =
+          float(ref::temporal_blend(finite ? history[c] : kNaN, current[c], lo[c], hi[c], weight));
     want.push_back(w);
   }
   PENUMBRA_EXPECT_ALL_NEAR(want, got, Tolerance::absolute(2e-7),

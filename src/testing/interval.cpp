@@ -439,6 +439,14 @@ SpecBool operator!=(const Interval& a, const Interval& b) {
   return !(a == b);
 }
 
+SpecBool is_nan(const Interval& x) {
+  return x.is_any() ? SpecBool(SpecBool::State::maybe) : SpecBool(false);
+}
+SpecBool is_finite(const Interval& x) {
+  if (x.is_any()) return SpecBool(SpecBool::State::maybe);
+  return decided(std::isfinite(x.lo_) && std::isfinite(x.hi_), x.lo_ == x.hi_ && std::isinf(x.lo_));
+}
+
 namespace detail {
 
 void for_each_spec_path(const SpecRules& rules, const std::function<void()>& run) {
@@ -842,23 +850,38 @@ void ToleranceAudit::add(double expected, double bound, const Interval& accepted
   if (accepted.is_any()) return;
   const double h_lo = float_up(expected - bound), h_hi = float_down(expected + bound);
   const double s_lo = accepted.lo_, s_hi = accepted.hi_;
-  std::uint64_t loose = 0, tight = 0;
-  if (h_lo < s_lo) loose = std::max(loose, floats_between(h_lo, s_lo));
-  if (h_hi > s_hi) loose = std::max(loose, floats_between(s_hi, h_hi));
+  if (h_lo < s_lo || h_hi > s_hi) {
+    ++too_loose;
+    const double width = s_hi - s_lo;
+    // A single allowed value: compare with the spacing of floats there.
+    const double unit = width > 0.0 ? width : spec_ulp(s_lo);
+    width_ratios.push_back((h_hi - h_lo) / unit);
+  }
+  std::uint64_t tight = 0;
   if (s_lo < h_lo) tight = std::max(tight, floats_between(s_lo, h_lo));
   if (s_hi > h_hi) tight = std::max(tight, floats_between(h_hi, s_hi));
-  if (loose > 0) ++too_loose;
   if (tight > 0) ++too_tight;
-  max_loose_floats = std::max(max_loose_floats, loose);
   max_tight_floats = std::max(max_tight_floats, tight);
 }
 
+double ToleranceAudit::median_ratio() const {
+  if (width_ratios.empty()) return 0.0;
+  std::vector<double> r = width_ratios;
+  std::nth_element(r.begin(), r.begin() + static_cast<std::ptrdiff_t>(r.size() / 2), r.end());
+  return r[r.size() / 2];
+}
+double ToleranceAudit::max_ratio() const {
+  return width_ratios.empty() ? 0.0 : *std::max_element(width_ratios.begin(), width_ratios.end());
+}
+
 std::string ToleranceAudit::describe() const {
-  return std::to_string(cases) + " cases: " + std::to_string(too_loose) +
-         " too loose (accepting up to " + std::to_string(max_loose_floats) +
-         " floats the spec does not allow), " + std::to_string(too_tight) +
-         " too tight (rejecting up to " + std::to_string(max_tight_floats) +
-         " floats the spec allows)";
+  char text[256];
+  std::snprintf(text, sizeof text,
+                "%zu cases: %zu too loose (its range a median %.3gx, at most %.3gx the "
+                "interval's), %zu too tight (rejecting up to %llu floats the spec allows)",
+                cases, too_loose, median_ratio(), max_ratio(), too_tight,
+                static_cast<unsigned long long>(max_tight_floats));
+  return text;
 }
 
 }  // namespace penumbra::testing::spec

@@ -185,6 +185,10 @@ SpecBool operator<=(const Interval& a, const Interval& b);
 SpecBool operator>=(const Interval& a, const Interval& b);
 SpecBool operator==(const Interval& a, const Interval& b);
 SpecBool operator!=(const Interval& a, const Interval& b);
+// GLSL's isnan / isinf, and finiteness (the shaders' penumbra_is_nan / penumbra_is_finite): an
+// "any" interval may be NaN or not.
+SpecBool is_nan(const Interval& x);
+SpecBool is_finite(const Interval& x);
 
 template <glm::length_t N>
 using IntervalVec = glm::vec<N, Interval, glm::defaultp>;
@@ -369,16 +373,20 @@ WithinResult compare_within(const std::vector<A>& accepted, const std::vector<V>
 ::testing::AssertionResult to_assertion_result(const WithinResult& result);
 
 // How a hand-picked tolerance compares with the spec: for a value expected in double with an
-// absolute bound, how far (in floats) it accepts beyond the interval (too loose) and how far the
-// interval reaches beyond it (too tight: a conforming device could fail the test).
+// absolute bound, whether it accepts a float the interval does not (too loose: by how much
+// wider its range is than the interval's) and whether the interval holds a float it rejects (too
+// tight: a conforming device could fail the test; by how many floats).
 struct ToleranceAudit {
   std::size_t cases = 0;
-  std::size_t too_loose = 0;  // cases where the bound accepts a float the spec does not allow
-  std::size_t too_tight = 0;  // cases where the spec allows a float the bound rejects
-  std::uint64_t max_loose_floats = 0;
-  std::uint64_t max_tight_floats = 0;
+  std::size_t too_loose = 0;
+  std::size_t too_tight = 0;
+  std::vector<double> width_ratios;    // the bound's range over the interval's, per loose case
+  std::uint64_t max_tight_floats = 0;  // floats the interval allows beyond the bound
   void add(double expected, double bound, const Interval& accepted);
-  std::string describe() const;  // "4096 cases: 12 too loose (up to 3 floats), 0 too tight"
+  double median_ratio() const;
+  double max_ratio() const;
+  // "8000 cases: 8000 too loose (range a median 3.1x, at most 40x the interval's), 0 too tight"
+  std::string describe() const;
 };
 
 }  // namespace spec
