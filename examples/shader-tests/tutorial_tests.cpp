@@ -6,7 +6,9 @@
 #include <algorithm>
 #include <cmath>
 #include <penumbra/testing/compare.hpp>
+#include <penumbra/testing/generators.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/property.hpp>
 #include <penumbra/testing/shader_function.hpp>
 
@@ -43,6 +45,30 @@ TEST_F(TutorialTest, WrappedLambertMatchesReference) {
       "wrapped_lambert", [&](const auto& cases) { return lambert.run(cases); }, reference,
       Tolerance::ulps(4, 1e-6), {.cases = 10000}, unit_vector3(), unit_vector3(),
       uniform(0.0f, 1.0f)));
+}
+
+// 4b. The same function against the Vulkan spec's own precision rules, with no tolerance to
+//     pick: the reference is written once as a template; in double it is the value, on
+//     Interval it is every result the spec allows a device to return for this formula (dot's
+//     sums in any order, fused multiply-adds, the division's 2.5 ULP, flushed denormals).
+template <class T, class V>
+T wrapped_lambert_formula(const V& n, const V& l, const T& wrap) {
+  using namespace penumbra::testing::glsl;
+  return max((dot(n, l) + wrap) / (T(1.0f) + wrap), T(0.0f));
+}
+
+TEST_F(TutorialTest, WrappedLambertLiesInTheSpecInterval) {
+  ShaderFunction<float(glm::vec3, glm::vec3, float)> lambert("my_shading.glsl", "wrapped_lambert");
+  Rng rng(kDefaultSeed);
+  const auto cases =
+      generate_cases(rng, 10000, unit_vector3(), unit_vector3(), uniform(0.0f, 1.0f));
+  std::vector<Interval> accepted;
+  for (const auto& [n, l, wrap] : cases) {
+    accepted.push_back(spec_interval(
+        [&] { return wrapped_lambert_formula(to_interval(n), to_interval(l), Interval(wrap)); }));
+  }
+  PENUMBRA_EXPECT_ALL_WITHIN(accepted, lambert.run(cases),
+                             [&](std::size_t i) { return format_tuple(cases[i]); });
 }
 
 // 5. Structs in, out-parameters back.
