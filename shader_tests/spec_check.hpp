@@ -12,6 +12,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdio>
+#include <cstdlib>
 #include <functional>
 #include <penumbra/testing/interval.hpp>
 #include <string>
@@ -58,6 +59,16 @@ inline ::testing::AssertionResult expect_within_spec(const SpecCheck& check,
   if (check.old_bound) {
     std::printf("[tolerance-audit] %s: %s; widest interval %llu floats\n", check.name.c_str(),
                 audit.describe().c_str(), static_cast<unsigned long long>(device.max_width));
+    // PENUMBRA_TOLERANCE_AUDIT=FILE appends one CSV row per check (docs/data/intervals/).
+    if (const char* path = std::getenv("PENUMBRA_TOLERANCE_AUDIT"); path != nullptr && *path) {
+      if (std::FILE* f = std::fopen(path, "a")) {
+        std::fprintf(f, "%s,%zu,%zu,%.4g,%.4g,%zu,%llu\n", check.name.c_str(), audit.cases,
+                     audit.too_loose, audit.median_ratio(), audit.max_ratio(), audit.too_tight,
+                     static_cast<unsigned long long>(audit.max_tight_floats));
+        const bool failed = std::fclose(f) != 0;
+        if (failed) std::fprintf(stderr, "could not write %s\n", path);
+      }
+    }
   }
   if (device.passed && wrong == 0) return ::testing::AssertionSuccess();
   auto failure = ::testing::AssertionFailure() << check.name << ":\n";
