@@ -20,6 +20,7 @@
 #include <penumbra/testing/compare.hpp>
 #include <penumbra/testing/generators.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <penumbra/testing/interval.hpp>
 #include <penumbra/testing/shader_function.hpp>
 #include <tuple>
 #include <vector>
@@ -59,7 +60,60 @@ TEST_F(SphereShadowTest, CapOcclusionMatchesAQuadratureOfTheLightCap) {
     cases.emplace_back(fa, fb, fg);
     expected.push_back(float(sphere_ref::cap_occlusion(fa, fb, fg)));
   }
-  PENUMBRA_EXPECT_ALL_NEAR(expected, f.run(cases), Tolerance::absolute(kTolerance));
+  const std::vector<float> got = f.run(cases);
+  PENUMBRA_EXPECT_ALL_NEAR(expected, got, Tolerance::absolute(kTolerance));
+  // A fraction: never outside [0, 1], also where rounding takes the closed forms past the ends.
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    EXPECT_TRUE(got[i] >= 0.0f && got[i] <= 1.0f) << format_tuple(cases[i]) << " -> " << got[i];
+  }
+}
+
+// The series the GLSL uses where a closed form cancels, as written (in double the value, on
+// Interval what the spec allows a device to return): theta - sin(theta) cos(theta) below 0.1,
+// asin(x) below 0.01.
+template <class T>
+T segment_area_series(T theta) {
+  const T t2 = theta * theta;
+  return theta * t2 * (T(2.0 / 3.0) - t2 * (T(2.0 / 15.0) - t2 * T(4.0 / 315.0)));
+}
+template <class T>
+T asin_series(T x) {
+  return x * (T(1.0f) + x * x * (T(1.0 / 6.0) + x * x * T(3.0 / 40.0)));
+}
+
+// The series are truncations of the exact functions (checked here in long double: the first
+// omitted term is below 1e-8 relative), and the device evaluates each within the spec's
+// interval: a wrong coefficient shifts the result by many ULP near the switch, where the last
+// terms are largest.
+TEST_F(SphereShadowTest, SeriesMatchTheirFunctionsAndLieInTheSpecIntervals) {
+  ShaderFunction<float(float)> segment(kSphere, "sphere_segment_area");
+  ShaderFunction<float(float)> arcsine(kSphere, "sphere_shadow_asin");
+  Rng rng(4112);
+  std::vector<std::tuple<float>> thetas, xs;
+  for (int i = 0; i < 4000; ++i) {
+    // Log-uniform, and a quarter in the last fifth before the switch.
+    thetas.emplace_back(
+        float(i % 4 == 0 ? 0.08 + 0.02 * rng.next_unit() : log_uniform(rng, 1e-3, 0.1)));
+    xs.emplace_back(
+        float(i % 4 == 0 ? 0.008 + 0.002 * rng.next_unit() : log_uniform(rng, 1e-5, 0.01)));
+  }
+  std::erase_if(thetas, [](const auto& c) { return std::get<0>(c) >= 0.1f; });
+  std::erase_if(xs, [](const auto& c) { return std::get<0>(c) >= 0.01f; });
+  std::vector<Interval> segment_ok, asin_ok;
+  for (const auto& [theta] : thetas) {
+    const long double t = theta;
+    const long double exact = t - std::sin(t) * std::cos(t);
+    EXPECT_NEAR(double(segment_area_series<long double>(t) / exact), 1.0, 1e-8) << theta;
+    segment_ok.push_back(spec_interval([&] { return segment_area_series(Interval(theta)); }));
+  }
+  for (const auto& [x] : xs) {
+    EXPECT_NEAR(double(asin_series<long double>(x) / std::asin((long double)x)), 1.0, 1e-8) << x;
+    asin_ok.push_back(spec_interval([&] { return asin_series(Interval(x)); }));
+  }
+  PENUMBRA_EXPECT_ALL_WITHIN(segment_ok, segment.run(thetas),
+                             [&](std::size_t i) { return format_tuple(thetas[i]); });
+  PENUMBRA_EXPECT_ALL_WITHIN(asin_ok, arcsine.run(xs),
+                             [&](std::size_t i) { return format_tuple(xs[i]); });
 }
 
 TEST_F(SphereShadowTest, TheEndsAreExactAndBadInputIsLit) {
@@ -140,6 +194,31 @@ TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
   EXPECT_EQ(light(glm::vec3(0), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 0.0f);
   EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
   EXPECT_EQ(sun(glm::vec3(0, 0, 7), glm::vec3(0, 0, 1), 0.01f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
+  // A sphere of no size hides nothing, even centred on the receiver.
+  EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 0.0f)), 0.0f);
+  EXPECT_EQ(sun(glm::vec3(0, 0, 7), glm::vec3(0, 0, 1), 0.01f, glm::vec4(0, 0, 7, 0.0f)), 0.0f);
+}
+
+// A big sun (half-angle 0.5 rad) and an occluder cap as big, their centres from 0.8 to 1.0 rad
+// apart: the caps overlap up to 1.0, hiding up to 6% of the sun; the quick rejection must not
+// call them apart (it compares cos g with cos(a + b), which needs both caps' cosines).
+TEST_F(SphereShadowTest, BigCapsNearContactAreNotRejected) {
+  ShaderFunction<float(glm::vec3, glm::vec3, float, glm::vec4)> sun(kSphere,
+                                                                    "sun_sphere_occlusion");
+  std::vector<std::tuple<glm::vec3, glm::vec3, float, glm::vec4>> cases;
+  std::vector<float> want;
+  const double d = 10.0, b = 0.5;
+  for (int i = 0; i <= 200; ++i) {
+    const double g = 0.8 + 0.2 * i / 200.0;
+    const glm::dvec3 o = d * glm::dvec3(std::sin(g), 0.0, std::cos(g));
+    const glm::vec4 sphere{glm::vec3(o), float(d * std::sin(b))};
+    cases.emplace_back(glm::vec3(0.0f), glm::vec3(0, 0, 1), 0.5f, sphere);
+    want.push_back(float(sphere_ref::sun_sphere_occlusion(glm::dvec3(0.0), glm::dvec3(0, 0, 1),
+                                                          0.5f, glm::vec3(o), sphere.w)));
+  }
+  EXPECT_GT(want.front(), 0.05f);  // the sweep starts well inside the overlap
+  PENUMBRA_EXPECT_ALL_NEAR(want, sun.run(cases), Tolerance::absolute(kTolerance),
+                           [&](std::size_t i) { return format_tuple(cases[i]); });
 }
 
 }  // namespace
