@@ -304,5 +304,20 @@ TEST_F(ContactExtremesTest, DepthStepIsTheViewDistanceOfOneStoredDepthStep) {
   EXPECT_TRUE(huge > 1e30f) << huge;
 }
 
+// Boundaries of the ray setup's guards: a light direction with an infinite z leaves the length
+// alone (only finite, non-zero z is clipped at the near plane); the smallest normal float is a
+// normal, not a degenerate one; step exponent 4 is x^4 (only 2 takes the x * x shortcut).
+TEST_F(ContactExtremesTest, GuardsHoldAtTheirBoundaries) {
+  ShaderFunction<float(glm::vec3, glm::vec3, float, float)> len(kFile, "contact_ray_length");
+  EXPECT_EQ(len(glm::vec3(0.0f, 0.0f, -1.0f), glm::vec3(0.0f, 0.0f, kInf), 2.0f, 0.1f), 2.0f);
+  EXPECT_EQ(len(glm::vec3(0.0f, 0.0f, -1.0f), glm::vec3(0.0f, 0.0f, 1.0f), 2.0f, 0.1f), 0.9f);
+  ShaderFunction<float(glm::vec3, glm::vec3)> ndl(kFile, "contact_n_dot_l");
+  const float smallest = std::numeric_limits<float>::min();
+  EXPECT_EQ(ndl(glm::vec3(smallest, 0.0f, 0.0f), glm::vec3(1.0f, 0.0f, 0.0f)), 1.0f);
+  ShaderFunction<float(uint32_t, uint32_t, float, float)> t(kFile, "contact_step_t");
+  EXPECT_NEAR(t(1u, 2u, 0.0f, 4.0f), 0.0625f, 1e-6f);
+  EXPECT_EQ(t(1u, 2u, 0.0f, 2.0f), 0.25f);
+}
+
 }  // namespace
 }  // namespace penumbra::testing

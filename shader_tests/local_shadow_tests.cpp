@@ -761,5 +761,42 @@ TEST_F(LocalShadowTest, SunPcssIsContinuousAtItsDegenerateEnds) {
   }
 }
 
+// local_nonneg: the guard every local-light parameter goes through.
+TEST_F(LocalShadowTest, NonNegativeCopyOfNonFiniteOrNegativeIsZero) {
+  ShaderFunction<float(float)> f(kLocal, "local_nonneg");
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<std::tuple<float>> cases{
+      {std::numeric_limits<float>::quiet_NaN()}, {inf}, {-inf}, {-1.0f}, {0.0f}, {2.5f}};
+  EXPECT_EQ(f.run(cases), (std::vector<float>{0.0f, 0.0f, 0.0f, 0.0f, 0.0f, 2.5f}));
+}
+
+// cube_tangent_basis: with normalize(dir), a right-handed orthonormal basis for any direction
+// (Duff et al.'s branchless form), including the sign switch at z = 0 and next to -Z.
+TEST_F(LocalShadowTest, TangentBasisIsRightHandedAndOrthonormalEverywhere) {
+  ShaderFunction<void(glm::vec3, Out<glm::vec3>, Out<glm::vec3>)> basis(kLocal,
+                                                                        "cube_tangent_basis");
+  Rng rng(0x7A16);
+  std::vector<std::tuple<glm::vec3>> cases;
+  for (int i = 0; i < 2000; ++i) {
+    const glm::vec3 d = unit_vector3()(rng) * float(0.01 + 100.0 * rng.next_unit());
+    cases.emplace_back(i % 5 == 0 ? glm::vec3(d.x, d.y, 0.0f) : d);
+  }
+  cases.emplace_back(glm::vec3(0.0f, 1e-4f, -1.0f));
+  cases.emplace_back(glm::vec3(1.0f, 0.0f, 0.0f));
+  const auto got = basis.run(cases);
+  for (std::size_t i = 0; i < got.size(); ++i) {
+    const glm::dvec3 n = glm::normalize(glm::dvec3(std::get<0>(cases[i])));
+    const auto [t32, b32] = got[i];
+    const glm::dvec3 t(t32), b(b32);
+    SCOPED_TRACE(format_tuple(cases[i]));
+    EXPECT_NEAR(glm::length(t), 1.0, 1e-5);
+    EXPECT_NEAR(glm::length(b), 1.0, 1e-5);
+    EXPECT_NEAR(glm::dot(t, b), 0.0, 1e-5);
+    EXPECT_NEAR(glm::dot(t, n), 0.0, 1e-5);
+    EXPECT_NEAR(glm::dot(b, n), 0.0, 1e-5);
+    EXPECT_NEAR(glm::dot(glm::cross(t, b), n), 1.0, 1e-5);
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing

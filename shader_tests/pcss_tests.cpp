@@ -565,5 +565,64 @@ TEST_F(PcssTest, BlockerSearchAgainstTheReceiversPlaneIgnoresTheReceiversOwnSurf
             search(coord, 0, 10.0f, 64, 0.2f, texel, false, glm::vec2(0.0f)));
 }
 
+// The guards for parameters outside their ranges, each against what the header promises: a NaN
+// search bound gives radius 0; a NaN confidence fraction counts as 0 (one blocker is full
+// confidence); no blocker never needs the filter; a receiver beyond the far plane searches as
+// one on it; a rotation that is not finite is no rotation.
+TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
+  ShaderFunction<float(float, Params, bool)> radius("penumbra/pcss.glsl",
+                                                    "pcss_search_radius_texels");
+  Params p;
+  p.tan_half_angle = 0.02f;
+  p.texel_world_size = 0.05f;
+  p.depth_near = 0.0f;
+  p.depth_far = 50.0f;
+  p.max_search_texels = std::numeric_limits<float>::quiet_NaN();
+  p.min_filter_texels = 1.0f;
+  p.max_filter_texels = 8.0f;
+  p.confidence_fraction = 0.25f;
+  EXPECT_EQ(radius(0.5f, p, false), 0.0f);
+  p.max_search_texels = 16.0f;
+  EXPECT_GT(radius(0.5f, p, false), 0.0f);
+
+  ShaderFunction<float(int32_t, int32_t, float)> confidence("penumbra/pcss.glsl",
+                                                            "pcss_confidence");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(confidence(1, 16, nan), 1.0f);
+  EXPECT_EQ(confidence(1, 16, 0.0f), 1.0f);
+  EXPECT_EQ(confidence(2, 16, 0.25f), 0.5f);
+
+  ShaderFunction<bool(int32_t, int32_t, float, float)> needs("penumbra/pcss.glsl",
+                                                             "pcss_needs_filter");
+  EXPECT_FALSE(needs(0, 16, 4.0f, 2.0f));
+  EXPECT_TRUE(needs(3, 16, 4.0f, 2.0f));
+  EXPECT_FALSE(needs(16, 16, 4.0f, 2.0f));
+
+  // Standard depth: the left half cleared to the far plane (1), the right half a sloped caster
+  // (0.3 to 0.55: the mean depth of the blockers depends on where the taps fall).
+  constexpr int n = 32;
+  ref::DepthMap map{n, n, {}};
+  for (int y = 0; y < n; ++y)
+    for (int x = 0; x < n; ++x)
+      map.depth.push_back(x < n / 2 ? 1.0f : 0.3f + 0.005f * float(x - n / 2 + 2 * y));
+  SearchFn search("penumbra/pcss.glsl", "pcss_blocker_search");
+  search.bind(0, raw_texture({map}));
+  const glm::vec2 texel(1.0f / float(n));
+  const auto at_far = search(glm::vec3(0.5f, 0.5f, 1.0f), 8.0f, 32, 0.3f, texel, false);
+  EXPECT_GT(std::get<1>(at_far), 0);
+  EXPECT_EQ(search(glm::vec3(0.5f, 0.5f, 1.5f), 8.0f, 32, 0.3f, texel, false), at_far);
+  EXPECT_EQ(search(glm::vec3(0.5f, 0.5f, 1.0f), 8.0f, 32, nan, texel, false),
+            search(glm::vec3(0.5f, 0.5f, 1.0f), 8.0f, 32, 0.0f, texel, false));
+  ShaderFunction<void(Sampler2DArray, glm::vec3, int32_t, float, int32_t, float, glm::vec2, bool,
+                      glm::vec2, Out<float>, Out<int32_t>)>
+      plane("penumbra/pcss.glsl", "pcss_blocker_search_plane_array");
+  plane.bind(0, raw_texture({map}, true));
+  const glm::vec3 c(0.5f, 0.5f, 1.0f);
+  const auto unrotated = plane(c, 0, 8.0f, 32, 0.0f, texel, false, glm::vec2(0.0f));
+  EXPECT_NE(plane(c, 0, 8.0f, 32, 1.0f, texel, false, glm::vec2(0.0f)), unrotated)
+      << "a rotation of 1 rad moves the taps (else the NaN check below proves nothing)";
+  EXPECT_EQ(plane(c, 0, 8.0f, 32, nan, texel, false, glm::vec2(0.0f)), unrotated);
+}
+
 }  // namespace
 }  // namespace penumbra::testing

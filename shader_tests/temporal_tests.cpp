@@ -172,5 +172,16 @@ TEST_F(TemporalTest, BlendClampsTheHistoryThenMovesTowardsTheCurrentValue) {
                            [&](size_t i) { return format_tuple(cases[i]); });
 }
 
+// The depth test accepts a stored distance exactly at the tolerance (fraction x expected +
+// constant), and rejects one a float beyond it.
+TEST_F(TemporalTest, SameSurfaceAcceptsTheToleranceItself) {
+  ShaderFunction<bool(float, glm::vec3, float, glm::vec3, float, float, float)> same(
+      kTemporal, "temporal_same_surface");
+  const glm::vec3 n(0, 0, 1);
+  EXPECT_TRUE(same(1.5f, n, 1.0f, n, 0.0f, 0.5f, 0.9f));
+  EXPECT_TRUE(same(0.5f, n, 1.0f, n, 0.25f, 0.25f, 0.9f));
+  EXPECT_FALSE(same(std::nextafter(1.5f, 2.0f), n, 1.0f, n, 0.0f, 0.5f, 0.9f));
+}
+
 }  // namespace
 }  // namespace penumbra::testing

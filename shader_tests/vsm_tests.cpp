@@ -849,5 +849,14 @@ TEST_F(VsmTest, Evsm2SampleShadowOffTheMapIsLit) {
   }
 }
 
+// The last step of every variance filter: clamp to [0, 1], lit for NaN and infinities.
+TEST_F(VsmTest, SaturateOrLit) {
+  ShaderFunction<float(float)> f("penumbra/vsm.glsl", "vsm_saturate_or_lit");
+  const float inf = std::numeric_limits<float>::infinity();
+  const std::vector<std::tuple<float>> cases{
+      {-0.5f}, {1.5f}, {0.3f}, {-0.0f}, {std::numeric_limits<float>::quiet_NaN()}, {inf}, {-inf}};
+  EXPECT_EQ(f.run(cases), (std::vector<float>{0.0f, 1.0f, 0.3f, 0.0f, 1.0f, 1.0f, 1.0f}));
+}
+
 }  // namespace
 }  // namespace penumbra::testing
