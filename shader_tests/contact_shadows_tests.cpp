@@ -73,6 +73,7 @@ ref::Params to_ref(const ContactGpu& g) {
   p.step_count = g.step_count;
   p.frame = g.frame;
   p.reverse_z = g.reverse_z != 0;
+  p.positional = g.light_dir.w != 0.0f;
   return p;
 }
 
@@ -468,7 +469,14 @@ TEST_F(ContactShadowsTest, RaySetupMatchesTheReference) {
   for (const Projection& proj : kProjections) {
     for (bool reverse_z : {true, false}) {
       for (int i = 0; i < 400; ++i) {
-        const ContactGpu g = random_params(rng, proj, reverse_z);
+        ContactGpu g = random_params(rng, proj, reverse_z);
+        // One in five lights is positional: a point 0.3 to 30 units away in view space.
+        if (i % 5 == 1) {
+          const double dist = log_uniform(rng, 0.3, 30.0);
+          g.light_dir = glm::vec4(glm::vec3(random_unit(rng) * dist) +
+                                      glm::vec3(0.0f, 0.0f, float(-log_uniform(rng, 0.5, 20.0))),
+                                  1.0f);
+        }
         const glm::ivec2 pixel(int(u(rng) * g.extent.x), int(u(rng) * g.extent.y));
         const double hi = std::isinf(proj.far) ? 200.0 : proj.far;
         const double z = log_uniform(rng, proj.near * 1.01, hi);
@@ -483,9 +491,10 @@ TEST_F(ContactShadowsTest, RaySetupMatchesTheReference) {
     }
   }
   const std::vector<Setup> got = f.run(cases);
-  int marched = 0, clamped = 0, clipped = 0;
+  int marched = 0, clamped = 0, clipped = 0, positional = 0;
   for (size_t i = 0; i < got.size(); ++i) {
     const auto& [steps, seg, inv_z, tol] = got[i];
+    positional += std::get<3>(cases[i]).light_dir.w != 0.0f && steps > 0;
     const ref::Ray& r = want[i];
     const ContactGpu& g = std::get<3>(cases[i]);
     std::ostringstream where;
@@ -511,11 +520,30 @@ TEST_F(ContactShadowsTest, RaySetupMatchesTheReference) {
     EXPECT_NEAR(inv_z.y, 1.0 / r.z1, 2e-5 / r.z1) << where.str();
     EXPECT_NEAR(tol, r.tolerance, 1e-5 * r.tolerance + 1e-12) << where.str();
   }
-  std::cout << "[ setup    ] " << got.size() << " rays: " << marched << " marched, " << clamped
+  EXPECT_GT(positional, 200) << "positional lights marched";
+  std::cout << "[ setup    ] " << got.size() << " rays (" << positional
+            << " marched towards a positional light): " << marched << " marched, " << clamped
             << " clamped at the near plane, " << clipped << " clipped at the screen edge\n";
   EXPECT_GT(marched, 1000);
   EXPECT_GT(clamped, 100);
   EXPECT_GT(clipped, 100);
+}
+
+// A receiver edge-on to the light (N.L exactly 0) is not marched: its ray would run along its
+// own surface.
+TEST_F(ContactShadowsTest, EdgeOnReceiversAreNotMarched) {
+  ShaderFunction<uint32_t(glm::ivec2, float, glm::vec3, ContactGpu, Out<glm::vec4>, Out<glm::vec2>,
+                          Out<float>)>
+      f(kFile, "contact_ray_setup");
+  std::mt19937 rng(22);
+  ContactGpu g = random_params(rng, kProjections[0], true);
+  g.light_dir = glm::vec4(1.0f, 0.0f, 0.0f, 0.0f);
+  g.max_distance = 2.0f;
+  g.step_count = 32;
+  const glm::ivec2 pixel(int(g.extent.x) / 2, int(g.extent.y) / 2);
+  const float d = float(ref::device_depth(5.0, kProjections[0].near, kProjections[0].far, true));
+  EXPECT_GT(std::get<0>(f(pixel, d, glm::vec3(0.6f, 0.8f, 0.0f), g)), 0u);
+  EXPECT_EQ(std::get<0>(f(pixel, d, glm::vec3(0.0f, 1.0f, 0.0f), g)), 0u);
 }
 
 // A random scene of blocks over a background plane, as a depth buffer (no geometry: depth

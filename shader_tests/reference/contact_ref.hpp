@@ -51,6 +51,9 @@ enum class Reads { dual, bilinear_only, nearest_only };
 // View space as in depth.glsl: x right, y up, the camera looks down -z; view distance = -z.
 struct Params {
   glm::dvec3 to_light{0.0, 1.0, 0.0};  // view space; normalized by the march
+  // A positional light: to_light is its view-space position, the ray goes towards it and no
+  // further than it.
+  bool positional = false;
   double tan_half_fov_y = 1.0;
   double aspect = 1.0;
   double near = 0.1;
@@ -305,15 +308,17 @@ inline Ray setup_ray(int x, int y, double depth, glm::dvec3 normal, const Params
   Ray r;
   const double z0 = surface_depth(depth, p.near, p.far, p.reverse_z);
   if (!(z0 > 0.0)) return r;
-  const double ll = glm::length(p.to_light);
-  if (!(ll > 0.0) || !std::isfinite(ll)) return r;
-  const glm::dvec3 l = p.to_light / ll;
-  r.n_dot_l = n_dot_l(normal, l);
-  if (!(r.n_dot_l > 0.0)) return r;
   const glm::dvec2 uv0 = pixel_uv(x, y, width, height);
   const glm::dvec3 origin = view_position(uv0, z0, p.tan_half_fov_y, p.aspect);
-  const double len = ray_length(origin, l, p.max_distance, p.near);
-  r.clamped = len < std::max(p.max_distance, 0.0);
+  const glm::dvec3 to = p.positional ? p.to_light - origin : p.to_light;
+  const double ll = glm::length(to);
+  if (!(ll > 0.0) || !std::isfinite(ll)) return r;
+  const glm::dvec3 l = to / ll;
+  const double max_distance = p.positional ? std::min(p.max_distance, ll) : p.max_distance;
+  r.n_dot_l = n_dot_l(normal, l);
+  if (!(r.n_dot_l > 0.0)) return r;
+  const double len = ray_length(origin, l, max_distance, p.near);
+  r.clamped = len < std::max(max_distance, 0.0);
   const glm::dvec3 end = origin + l * len;
   const glm::dvec2 uv1 = project_uv(end, p.tan_half_fov_y, p.aspect);
   const double t = screen_exit(uv0, uv1);
