@@ -798,5 +798,25 @@ TEST_F(LocalShadowTest, TangentBasisIsRightHandedAndOrthonormalEverywhere) {
   }
 }
 
+// A point light (radius 0) has search radius 0, clamped up to min_filter + 1, even where the
+// quotient's denominator is 0 too (near 0, a receiver at the light): 0 / 0 must not reach the
+// clamp (a NaN radius means the largest search).
+TEST_F(LocalShadowTest, PointLightSearchRadiusIsTheLowerBoundEvenOverZero) {
+  ShaderFunction<float(float, Local)> search(kLocal, "pcss_local_search_radius_texels");
+  Local p;
+  p.light_radius = 0.0f;
+  p.texel_at_unit = 0.002f;
+  p.near = 0.0f;
+  p.far = 20.0f;
+  p.max_search_texels = 16.0f;
+  p.min_filter_texels = 1.0f;
+  p.max_filter_texels = 8.0f;
+  p.confidence_fraction = 0.25f;
+  EXPECT_EQ(search(5.0f, p), 2.0f);
+  EXPECT_EQ(search(0.0f, p), 2.0f);
+  p.near = 0.5f;
+  EXPECT_EQ(search(5.0f, p), 2.0f);
+}
+
 }  // namespace
 }  // namespace penumbra::testing
