@@ -56,6 +56,53 @@ struct Wide {
 PENUMBRA_GLSL_STRUCT(Wide, "Wide", f0, v1, i2, b3, w4, f5, q6, u7, f8, v9, f10, i11, w12, f13, b14,
                      v15, f16, u17, q18, f19);
 
+// Forty fields, the GLSL struct Wide40 of funcs.glsl.
+struct Wide40 {
+  float m0;
+  glm::vec3 m1;
+  int32_t m2;
+  glm::vec2 m3;
+  float m4;
+  glm::vec3 m5;
+  int32_t m6;
+  glm::vec2 m7;
+  float m8;
+  glm::vec3 m9;
+  int32_t m10;
+  glm::vec2 m11;
+  float m12;
+  glm::vec3 m13;
+  int32_t m14;
+  glm::vec2 m15;
+  float m16;
+  glm::vec3 m17;
+  int32_t m18;
+  glm::vec2 m19;
+  float m20;
+  glm::vec3 m21;
+  int32_t m22;
+  glm::vec2 m23;
+  float m24;
+  glm::vec3 m25;
+  int32_t m26;
+  glm::vec2 m27;
+  float m28;
+  glm::vec3 m29;
+  int32_t m30;
+  glm::vec2 m31;
+  float m32;
+  glm::vec3 m33;
+  int32_t m34;
+  glm::vec2 m35;
+  float m36;
+  glm::vec3 m37;
+  int32_t m38;
+  glm::vec2 m39;
+};
+PENUMBRA_GLSL_STRUCT(Wide40, "Wide40", m0, m1, m2, m3, m4, m5, m6, m7, m8, m9, m10, m11, m12, m13,
+                     m14, m15, m16, m17, m18, m19, m20, m21, m22, m23, m24, m25, m26, m27, m28, m29,
+                     m30, m31, m32, m33, m34, m35, m36, m37, m38, m39);
+
 // The same GLSL struct described with its fields in the wrong order: the layout check must
 // refuse it, naming the field and both offsets.
 struct LightMisdescribed {
@@ -273,6 +320,114 @@ TEST_F(HarnessTest, AStructOfTwentyFieldsRoundTrips) {
   EXPECT_EQ(r.q18, glm::vec4(28.5f, 29.5f, 30.5f, 31.5f));
   EXPECT_EQ(r.f19, 32.5f);
   EXPECT_EQ(glsl_type<Wide>()->members.size(), 20u);
+}
+
+TEST_F(HarnessTest, AStructOfFortyFieldsRoundTrips) {
+  ShaderFunction<Wide40(Wide40, float)> f(kFuncs, "wide40_shift");
+  EXPECT_EQ(glsl_type<Wide40>()->members.size(), 40u);
+  Wide40 w{};
+  int k = 0;
+  w.m0 = float(k++);
+  w.m1 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m2 = -(k++);
+  w.m3 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m4 = float(k++);
+  w.m5 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m6 = -(k++);
+  w.m7 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m8 = float(k++);
+  w.m9 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m10 = -(k++);
+  w.m11 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m12 = float(k++);
+  w.m13 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m14 = -(k++);
+  w.m15 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m16 = float(k++);
+  w.m17 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m18 = -(k++);
+  w.m19 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m20 = float(k++);
+  w.m21 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m22 = -(k++);
+  w.m23 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m24 = float(k++);
+  w.m25 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m26 = -(k++);
+  w.m27 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m28 = float(k++);
+  w.m29 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m30 = -(k++);
+  w.m31 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m32 = float(k++);
+  w.m33 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m34 = -(k++);
+  w.m35 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  w.m36 = float(k++);
+  w.m37 = glm::vec3(float(k), float(k + 1), float(k + 2));
+  k += 3;
+  w.m38 = -(k++);
+  w.m39 = glm::vec2(float(k), float(k + 1));
+  k += 2;
+  const Wide40 r = f(w, 0.5f);
+  EXPECT_EQ(r.m0, w.m0 + 0.5f);
+  EXPECT_EQ(r.m1, w.m1 + 0.5f);
+  EXPECT_EQ(r.m2, w.m2 + 1);
+  EXPECT_EQ(r.m3, w.m3 + 0.5f);
+  EXPECT_EQ(r.m4, w.m4 + 0.5f);
+  EXPECT_EQ(r.m5, w.m5 + 0.5f);
+  EXPECT_EQ(r.m6, w.m6 + 1);
+  EXPECT_EQ(r.m7, w.m7 + 0.5f);
+  EXPECT_EQ(r.m8, w.m8 + 0.5f);
+  EXPECT_EQ(r.m9, w.m9 + 0.5f);
+  EXPECT_EQ(r.m10, w.m10 + 1);
+  EXPECT_EQ(r.m11, w.m11 + 0.5f);
+  EXPECT_EQ(r.m12, w.m12 + 0.5f);
+  EXPECT_EQ(r.m13, w.m13 + 0.5f);
+  EXPECT_EQ(r.m14, w.m14 + 1);
+  EXPECT_EQ(r.m15, w.m15 + 0.5f);
+  EXPECT_EQ(r.m16, w.m16 + 0.5f);
+  EXPECT_EQ(r.m17, w.m17 + 0.5f);
+  EXPECT_EQ(r.m18, w.m18 + 1);
+  EXPECT_EQ(r.m19, w.m19 + 0.5f);
+  EXPECT_EQ(r.m20, w.m20 + 0.5f);
+  EXPECT_EQ(r.m21, w.m21 + 0.5f);
+  EXPECT_EQ(r.m22, w.m22 + 1);
+  EXPECT_EQ(r.m23, w.m23 + 0.5f);
+  EXPECT_EQ(r.m24, w.m24 + 0.5f);
+  EXPECT_EQ(r.m25, w.m25 + 0.5f);
+  EXPECT_EQ(r.m26, w.m26 + 1);
+  EXPECT_EQ(r.m27, w.m27 + 0.5f);
+  EXPECT_EQ(r.m28, w.m28 + 0.5f);
+  EXPECT_EQ(r.m29, w.m29 + 0.5f);
+  EXPECT_EQ(r.m30, w.m30 + 1);
+  EXPECT_EQ(r.m31, w.m31 + 0.5f);
+  EXPECT_EQ(r.m32, w.m32 + 0.5f);
+  EXPECT_EQ(r.m33, w.m33 + 0.5f);
+  EXPECT_EQ(r.m34, w.m34 + 1);
+  EXPECT_EQ(r.m35, w.m35 + 0.5f);
+  EXPECT_EQ(r.m36, w.m36 + 0.5f);
+  EXPECT_EQ(r.m37, w.m37 + 0.5f);
+  EXPECT_EQ(r.m38, w.m38 + 1);
+  EXPECT_EQ(r.m39, w.m39 + 0.5f);
 }
 
 // Macros are tested like functions: the wrapper writes the call as text.

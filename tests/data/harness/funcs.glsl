@@ -131,6 +131,94 @@ float print_and_square(float x) {
   return x * x;
 }
 
+
+// Forty fields (a float, vec3, int, vec2 cycle: std430 pads each vec3 to 16), each moved by d.
+struct Wide40 {
+  float m0;
+  vec3 m1;
+  int m2;
+  vec2 m3;
+  float m4;
+  vec3 m5;
+  int m6;
+  vec2 m7;
+  float m8;
+  vec3 m9;
+  int m10;
+  vec2 m11;
+  float m12;
+  vec3 m13;
+  int m14;
+  vec2 m15;
+  float m16;
+  vec3 m17;
+  int m18;
+  vec2 m19;
+  float m20;
+  vec3 m21;
+  int m22;
+  vec2 m23;
+  float m24;
+  vec3 m25;
+  int m26;
+  vec2 m27;
+  float m28;
+  vec3 m29;
+  int m30;
+  vec2 m31;
+  float m32;
+  vec3 m33;
+  int m34;
+  vec2 m35;
+  float m36;
+  vec3 m37;
+  int m38;
+  vec2 m39;
+};
+Wide40 wide40_shift(Wide40 w, float d) {
+  w.m0 += d;
+  w.m1 += d;
+  w.m2 += 1;
+  w.m3 += d;
+  w.m4 += d;
+  w.m5 += d;
+  w.m6 += 1;
+  w.m7 += d;
+  w.m8 += d;
+  w.m9 += d;
+  w.m10 += 1;
+  w.m11 += d;
+  w.m12 += d;
+  w.m13 += d;
+  w.m14 += 1;
+  w.m15 += d;
+  w.m16 += d;
+  w.m17 += d;
+  w.m18 += 1;
+  w.m19 += d;
+  w.m20 += d;
+  w.m21 += d;
+  w.m22 += 1;
+  w.m23 += d;
+  w.m24 += d;
+  w.m25 += d;
+  w.m26 += 1;
+  w.m27 += d;
+  w.m28 += d;
+  w.m29 += d;
+  w.m30 += 1;
+  w.m31 += d;
+  w.m32 += d;
+  w.m33 += d;
+  w.m34 += 1;
+  w.m35 += d;
+  w.m36 += d;
+  w.m37 += d;
+  w.m38 += 1;
+  w.m39 += d;
+  return w;
+}
+
 #endif
 
 // For the spec-interval tests: a contractible a * b + c, the same `precise`, a product, a
