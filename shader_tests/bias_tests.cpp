@@ -370,5 +370,19 @@ TEST_F(BiasTest, ApplyDepthBiasMovesTowardsTheLightInBothConventions) {
   EXPECT_EQ(apply(0.5f, 0.0f, false), 0.5f);
 }
 
+// The guards of the normal offset and the light-ward bias at their boundaries: a zero normal or
+// light direction gives the full offset (scale 1); a direction whose squared length is exactly
+// FLT_MIN is long enough to move along.
+TEST_F(BiasTest, GuardsAtTheirBoundaries) {
+  ShaderFunction<float(glm::vec3, glm::vec3)> scale(kBias, "normal_offset_scale");
+  EXPECT_EQ(scale(glm::vec3(0.0f), glm::vec3(0, 0, 1)), 1.0f);
+  EXPECT_EQ(scale(glm::vec3(0, 0, 1), glm::vec3(0.0f)), 1.0f);
+  EXPECT_LT(scale(glm::vec3(0, 0, 1), glm::vec3(0, 0, 1)), 1e-5f);
+  ShaderFunction<glm::vec3(glm::vec3, glm::vec3, float)> toward(kBias, "bias_toward_light");
+  const float tiny = 0x1p-63f;  // tiny * tiny = FLT_MIN
+  EXPECT_EQ(toward(glm::vec3(0.0f), glm::vec3(tiny, 0.0f, 0.0f), 0.5f), glm::vec3(0.5f, 0, 0));
+  EXPECT_EQ(toward(glm::vec3(1.0f), glm::vec3(0.0f, 2.0f, 0.0f), 0.0f), glm::vec3(1.0f));
+}
+
 }  // namespace
 }  // namespace penumbra::testing

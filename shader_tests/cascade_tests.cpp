@@ -833,5 +833,20 @@ TEST_F(CascadeTest, SelectionByPositionWithoutTheCoordinateMatchesTheFullOverloa
   }
 }
 
+// A coordinate with one non-finite component is outside, whichever component it is (y here:
+// x and z finite); a ramp a few hundred FLT_MIN wide keeps its slope (no 2^-64 scaling below
+// kCascadeLargeDivisor, which would take it into the denormals).
+TEST_F(CascadeTest, OneNonFiniteComponentAndTinyRamps) {
+  ShaderFunction<glm::vec3(glm::mat4, glm::vec3)> to_coord(kCascade, "world_to_shadow_coord");
+  glm::mat4 m(1.0f);
+  m[1][1] = 10.0f;  // clip.y = 10 y: overflows for y = 1e38
+  EXPECT_EQ(to_coord(m, glm::vec3(0.5f, 1e38f, 0.5f)), glm::vec3(-1.0f));
+  EXPECT_EQ(to_coord(m, glm::vec3(0.5f, 0.01f, 0.5f)), glm::vec3(0.75f, 0.55f, 0.5f));
+  ShaderFunction<float(float, float, float)> ramp(kCascade, "cascade_end_ramp");
+  const float w = 1e-36f, end = 4e-36f;
+  EXPECT_NEAR(ramp(end - 0.5f * w, end, w), 0.5f, 1e-3f);
+  EXPECT_NEAR(ramp(end - 0.25f * w, end, w), 0.75f, 1e-3f);
+}
+
 }  // namespace
 }  // namespace penumbra::testing

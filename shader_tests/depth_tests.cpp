@@ -690,5 +690,20 @@ TEST_F(DepthTest, RayPlanePointFollowsTheRayToTheReceiverPlaneWithinItsCap) {
   std::printf("ray_plane_point: %zu cases, worst error %.3g of its bound\n", cases.size(), worst);
 }
 
+// Planes at 1e18 and 1e19 (the documented range of far), z = 1e20: far * (z - near) overflows,
+// so view_distance_to_depth takes its product of ratios; standard-Z's (z - near) / z is 0.99 here,
+// not 1 (for nearer planes it rounds to 1 and hides a sign error).
+TEST_F(DepthTest, ViewDistanceToDepthRatioFormWithFarPlanesNear1e19) {
+  ShaderFunction<float(float, float, float, bool)> to_depth(kDepth, "view_distance_to_depth");
+  const float near = 1e18f, far = 1e19f;
+  for (const float z : {1e20f, 3e20f, 1e21f}) {
+    for (const bool reverse_z : {true, false}) {
+      const double want = double(ref::depth_from_view_distance(z, near, far, reverse_z));
+      EXPECT_NEAR(to_depth(z, near, far, reverse_z), want, 8 * 0x1p-23 * std::fabs(want))
+          << "z " << z << (reverse_z ? " reverse-Z" : " standard-Z");
+    }
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing

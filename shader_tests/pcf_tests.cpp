@@ -409,5 +409,36 @@ TEST_F(PcfTest, ReferenceDetectsAHalfTexelShift) {
   EXPECT_GT(far_off, 100u);
 }
 
+// The guards every PCF filter shares: the last step is lit for a non-finite value; a rotation
+// that is not finite is no rotation; tap counts are clamped to [1, the table's size].
+TEST_F(PcfTest, GuardsOfTheFilters) {
+  ShaderFunction<float(float)> saturate("penumbra/pcf.glsl", "pcf_saturate_or_lit");
+  EXPECT_EQ(saturate(std::numeric_limits<float>::quiet_NaN()), 1.0f);
+  EXPECT_EQ(saturate(-0.5f), 0.0f);
+  ShaderFunction<glm::vec2(float)> rotation("penumbra/pcf.glsl", "pcf_rotation_cos_sin");
+  EXPECT_EQ(rotation(std::numeric_limits<float>::quiet_NaN()), glm::vec2(1.0f, 0.0f));
+  EXPECT_EQ(rotation(std::numeric_limits<float>::infinity()), glm::vec2(1.0f, 0.0f));
+  Rng rng(108);
+  const std::vector<ref::DepthMap> layers{random_map(rng, 32, 32), random_map(rng, 32, 32)};
+  const glm::vec2 texel = texel_size_of(layers[0]);
+  DiskArrayFn poisson("penumbra/pcf.glsl", "pcf_poisson_array");
+  DiskArrayFn vogel("penumbra/pcf.glsl", "pcf_vogel_array");
+  const auto tex = compare_texture(layers, true);
+  poisson.bind(0, tex);
+  vogel.bind(0, tex);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int k = 0; k < 16; ++k) {
+    const glm::vec3 c(rng.next_unit(), rng.next_unit(), rng.next_unit());
+    SCOPED_TRACE(format_value(c));
+    for (DiskArrayFn* f : {&poisson, &vogel}) {
+      const int most = f == &poisson ? 32 : 64;
+      EXPECT_EQ((*f)(c, 1, 0, 3.0f, 0.5f, texel), (*f)(c, 1, 1, 3.0f, 0.5f, texel));
+      EXPECT_EQ((*f)(c, 1, -5, 3.0f, 0.5f, texel), (*f)(c, 1, 1, 3.0f, 0.5f, texel));
+      EXPECT_EQ((*f)(c, 1, 1000, 3.0f, 0.5f, texel), (*f)(c, 1, most, 3.0f, 0.5f, texel));
+      EXPECT_EQ((*f)(c, 1, 12, 3.0f, nan, texel), (*f)(c, 1, 12, 3.0f, 0.0f, texel));
+    }
+  }
+}
+
 }  // namespace
 }  // namespace penumbra::testing

@@ -582,8 +582,26 @@ TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
   p.max_filter_texels = 8.0f;
   p.confidence_fraction = 0.25f;
   EXPECT_EQ(radius(0.5f, p, false), 0.0f);
+  p.max_search_texels = -3.0f;  // a negative bound counts as 0
+  EXPECT_EQ(radius(0.5f, p, false), 0.0f);
   p.max_search_texels = 16.0f;
   EXPECT_GT(radius(0.5f, p, false), 0.0f);
+  // A receiver beyond the depth range searches as one at its end; a zero texel (an infinite
+  // radius) searches nothing.
+  EXPECT_EQ(radius(1.5f, p, false), radius(1.0f, p, false));
+  EXPECT_EQ(radius(-0.5f, p, true), radius(0.0f, p, true));
+  Params zero_texel = p;
+  zero_texel.texel_world_size = 0.0f;
+  EXPECT_EQ(radius(0.5f, zero_texel, false), 0.0f);
+
+  ShaderFunction<float(float, float, float)> bounded("penumbra/pcss.glsl",
+                                                     "pcss_search_radius_bounded");
+  EXPECT_EQ(bounded(0.0f, std::numeric_limits<float>::quiet_NaN(), 16.0f), 1.0f);
+  ShaderFunction<float(float, float, Params, bool)> filter("penumbra/pcss.glsl",
+                                                           "pcss_filter_radius_texels");
+  Params nan_min = p;
+  nan_min.min_filter_texels = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(filter(0.5f, 0.5f, nan_min, false), 0.0f);  // no blocker distance: the minimum, 0
 
   ShaderFunction<float(int32_t, int32_t, float)> confidence("penumbra/pcss.glsl",
                                                             "pcss_confidence");
@@ -591,6 +609,7 @@ TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
   EXPECT_EQ(confidence(1, 16, nan), 1.0f);
   EXPECT_EQ(confidence(1, 16, 0.0f), 1.0f);
   EXPECT_EQ(confidence(2, 16, 0.25f), 0.5f);
+  EXPECT_EQ(confidence(8, 16, 2.0f), 0.5f);  // a fraction above 1 counts as 1
 
   ShaderFunction<bool(int32_t, int32_t, float, float)> needs("penumbra/pcss.glsl",
                                                              "pcss_needs_filter");
@@ -622,6 +641,23 @@ TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
   EXPECT_NE(plane(c, 0, 8.0f, 32, 1.0f, texel, false, glm::vec2(0.0f)), unrotated)
       << "a rotation of 1 rad moves the taps (else the NaN check below proves nothing)";
   EXPECT_EQ(plane(c, 0, 8.0f, 32, nan, texel, false, glm::vec2(0.0f)), unrotated);
+  EXPECT_EQ(plane(glm::vec3(0.5f, 0.5f, 1.5f), 0, 8.0f, 32, 0.0f, texel, false, glm::vec2(0.0f)),
+            unrotated);
+  // Tap counts are clamped to [1, 64].
+  for (const glm::vec3& at : {glm::vec3(0.5f, 0.5f, 1.0f), glm::vec3(0.6f, 0.3f, 0.5f)}) {
+    EXPECT_EQ(search(at, 8.0f, 0, 0.3f, texel, false), search(at, 8.0f, 1, 0.3f, texel, false));
+    EXPECT_EQ(search(at, 8.0f, 500, 0.3f, texel, false), search(at, 8.0f, 64, 0.3f, texel, false));
+    EXPECT_EQ(plane(at, 0, 8.0f, -2, 0.3f, texel, false, glm::vec2(0.0f)),
+              plane(at, 0, 8.0f, 1, 0.3f, texel, false, glm::vec2(0.0f)));
+    EXPECT_EQ(plane(at, 0, 8.0f, 500, 0.3f, texel, false, glm::vec2(0.0f)),
+              plane(at, 0, 8.0f, 64, 0.3f, texel, false, glm::vec2(0.0f)));
+  }
+  // The full filter: a coordinate off the map is lit.
+  PcssArrayFn pcss("penumbra/pcss.glsl", "pcss_shadow_array");
+  pcss.bind(0, compare_texture({map}, false, true));
+  pcss.bind(1, raw_texture({map}, true));
+  EXPECT_EQ(pcss(glm::vec3(1.5f, 0.5f, 1.0f), 0, texel, p, 1, 0.0f, false), 1.0f);
+  EXPECT_LT(pcss(glm::vec3(0.9f, 0.5f, 1.0f), 0, texel, p, 1, 0.0f, false), 1.0f);
 }
 
 }  // namespace

@@ -129,9 +129,11 @@ TEST_F(SphereShadowTest, TheEndsAreExactAndBadInputIsLit) {
       {0.2f, 0.1f, 0.05f},     // the occluder inside the light: (sin(b/2) / sin(a/2))^2
       {nan, 0.2f, 0.1f},      {0.1f, nan, 0.1f},
       {0.1f, 0.2f, nan},      {0.1f, 0.0f, 0.0f},  // an occluder of no size
+      {0.1f, 0.2f, 0.0f},                          // concentric, the occluder larger: hidden
+      {0.0f, 0.2f, 0.2f},                          // a point light on the occluder's edge: seen
   };
   const double inside = std::pow(std::sin(0.05) / std::sin(0.1), 2.0);
-  const std::vector<float> expected{0, 0, 1, 1, 1, 0, float(inside), 0, 0, 0, 0};
+  const std::vector<float> expected{0, 0, 1, 1, 1, 0, float(inside), 0, 0, 0, 0, 1, 0};
   PENUMBRA_EXPECT_ALL_NEAR(expected, f.run(cases), Tolerance::absolute(1e-6));
 }
 

@@ -183,5 +183,30 @@ TEST_F(TemporalTest, SameSurfaceAcceptsTheToleranceItself) {
   EXPECT_FALSE(same(std::nextafter(1.5f, 2.0f), n, 1.0f, n, 0.0f, 0.5f, 0.9f));
 }
 
+// Reprojection through any projection matrix (an orthographic one's w is 1, not -z); a point on
+// the eye plane (w = 0) has no pixel; the same-surface test rejects sky (distance 0) and accepts
+// normals exactly at the cosine bound.
+TEST_F(TemporalTest, ReprojectionAndSameSurfaceBoundaries) {
+  ShaderFunction<glm::vec3(glm::mat4, glm::vec3, glm::vec2)> reproject(kTemporal,
+                                                                       "temporal_reproject");
+  const glm::mat4 ortho = glm::orthoRH_ZO(-4.0f, 4.0f, -2.0f, 2.0f, 0.1f, 100.0f);
+  const glm::vec3 v(1.0f, -0.5f, -10.0f);
+  const glm::vec4 c = ortho * glm::vec4(v, 1.0f);
+  const glm::vec2 size(800.0f, 400.0f);
+  const glm::vec2 want = (glm::vec2(c) / c.w * 0.5f + 0.5f) * size - 0.5f;
+  const glm::vec3 got = reproject(ortho, v, size);
+  EXPECT_NEAR(got.x, want.x, 1e-3f);
+  EXPECT_NEAR(got.y, want.y, 1e-3f);
+  EXPECT_EQ(got.z, 1.0f);
+  const glm::mat4 persp = glm::perspectiveRH_ZO(1.0f, 2.0f, 0.1f, 100.0f);
+  EXPECT_EQ(reproject(persp, glm::vec3(1.0f, 1.0f, 0.0f), size), glm::vec3(0.0f));
+
+  ShaderFunction<bool(float, glm::vec3, float, glm::vec3, float, float, float)> same(
+      kTemporal, "temporal_same_surface");
+  const glm::vec3 n(0, 0, 1);
+  EXPECT_FALSE(same(0.0f, n, 0.1f, n, 0.0f, 0.5f, 0.9f));
+  EXPECT_TRUE(same(1.0f, n, 1.0f, n, 0.0f, 0.5f, 1.0f));
+}
+
 }  // namespace
 }  // namespace penumbra::testing

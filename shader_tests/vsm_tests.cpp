@@ -490,8 +490,8 @@ TEST_F(VsmTest, SpotMomentsWarpLinearDepthBetweenThePlanes) {
                            bool)>
       linear("penumbra/vsm.glsl", "evsm2_moments_box_x_linear");
   linear.bind(0, make_float_texture(desc, depth));
-  for (bool reverse_z : {true, false}) {
-    const int radius = 1;
+  for (const auto& [reverse_z, radius] :
+       {std::pair{true, 1}, std::pair{false, 1}, std::pair{true, 2}, std::pair{false, 3}}) {
     const float c = 20.0f;
     std::vector<std::tuple<glm::ivec3, int32_t, int32_t, float, float, float, bool, bool>> cases;
     for (int y = 0; y < size; ++y)
@@ -856,6 +856,23 @@ TEST_F(VsmTest, SaturateOrLit) {
   const std::vector<std::tuple<float>> cases{
       {-0.5f}, {1.5f}, {0.3f}, {-0.0f}, {std::numeric_limits<float>::quiet_NaN()}, {inf}, {-inf}};
   EXPECT_EQ(f.run(cases), (std::vector<float>{0.0f, 1.0f, 0.3f, 0.0f, 1.0f, 1.0f, 1.0f}));
+}
+
+// The guards of the moment tests: a NaN minimum sigma counts as 0 (a variance of 0 then hides
+// the receiver fully), and a receiver beyond the map's depth range reads as one at its end.
+TEST_F(VsmTest, MinimumSigmaAndReceiverDepthGuards) {
+  ShaderFunction<float(glm::vec2, float, float)> bound("penumbra/vsm.glsl",
+                                                       "chebyshev_bound_min_sigma");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(bound(glm::vec2(0.5f, 0.25f), 0.6f, nan), 0.0f);
+  EXPECT_EQ(bound(glm::vec2(0.5f, 0.25f), 0.6f, 0.0f), 0.0f);
+  VsmFn vsm("penumbra/vsm.glsl", "vsm_shadow");
+  const glm::vec2 moments(0.9f, 0.9f * 0.9f + 0.01f);
+  for (bool reverse_z : {true, false}) {
+    const float end = reverse_z ? 0.0f : 1.0f, beyond = reverse_z ? -0.5f : 1.5f;
+    EXPECT_EQ(vsm(moments, beyond, 1e-5f, 0.0f, reverse_z),
+              vsm(moments, end, 1e-5f, 0.0f, reverse_z));
+  }
 }
 
 }  // namespace
