@@ -317,6 +317,26 @@ TEST_F(ContactExtremesTest, GuardsHoldAtTheirBoundaries) {
   ShaderFunction<float(uint32_t, uint32_t, float, float)> t(kFile, "contact_step_t");
   EXPECT_NEAR(t(1u, 2u, 0.0f, 4.0f), 0.0625f, 1e-6f);
   EXPECT_EQ(t(1u, 2u, 0.0f, 2.0f), 0.25f);
+  // Below 1 an exponent counts as 1; the first step without noise is at 0 whatever the exponent.
+  EXPECT_EQ(t(1u, 2u, 0.0f, 0.5f), 0.5f);
+  EXPECT_EQ(t(0u, 4u, 0.0f, 3.0f), 0.0f);
+  // A ray shorter than max_distance is not lengthened; a direction with z = 0 is never clipped,
+  // even from a receiver nearer than the near plane.
+  EXPECT_EQ(len(glm::vec3(0.0f, 0.0f, -1.0f), glm::vec3(1.0f, 0.0f, 0.0f), 0.5f, 0.1f), 0.5f);
+  EXPECT_EQ(len(glm::vec3(0.0f, 0.0f, -0.05f), glm::vec3(1.0f, 0.0f, 0.0f), 2.0f, 0.1f), 2.0f);
+  // The screen exit stays in [0, 1] even from a start off the screen.
+  ShaderFunction<float(glm::vec2, glm::vec2)> exit(kFile, "contact_screen_exit");
+  EXPECT_EQ(exit(glm::vec2(1.5f, 0.5f), glm::vec2(2.0f, 0.5f)), 0.0f);
+  // The occlusion window is open at both ends, and no surface (0) never occludes.
+  ShaderFunction<bool(float, float, float, float)> behind(kFile, "contact_ray_behind");
+  EXPECT_FALSE(behind(2.0f, 1.5f, 0.5f, 0.5f));  // delta = tolerance
+  EXPECT_FALSE(behind(2.0f, 1.0f, 0.5f, 0.5f));  // delta = tolerance + thickness
+  EXPECT_TRUE(behind(2.0f, 1.25f, 0.5f, 0.5f));
+  EXPECT_TRUE(behind(1.0f, 0.5f, 0.1f, 1.0f));
+  EXPECT_FALSE(behind(0.3f, 0.0f, 0.1f, 1.0f));
+  // A fade width of 0 is no fade, at the border too.
+  ShaderFunction<float(glm::vec2, float)> fade(kFile, "contact_edge_fade");
+  EXPECT_EQ(fade(glm::vec2(0.0f, 0.5f), 0.0f), 1.0f);
 }
 
 }  // namespace

@@ -588,8 +588,11 @@ TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
   EXPECT_GT(radius(0.5f, p, false), 0.0f);
   // A receiver beyond the depth range searches as one at its end; a zero texel (an infinite
   // radius) searches nothing.
-  EXPECT_EQ(radius(1.5f, p, false), radius(1.0f, p, false));
-  EXPECT_EQ(radius(-0.5f, p, true), radius(0.0f, p, true));
+  Params wide = p;
+  wide.max_search_texels = 1000.0f;  // the radius below the bound: 20 texels at the far end
+  EXPECT_EQ(radius(1.5f, wide, false), radius(1.0f, wide, false));
+  EXPECT_EQ(radius(-0.5f, wide, true), radius(0.0f, wide, true));
+  EXPECT_LT(radius(1.0f, wide, false), 1000.0f);
   Params zero_texel = p;
   zero_texel.texel_world_size = 0.0f;
   EXPECT_EQ(radius(0.5f, zero_texel, false), 0.0f);

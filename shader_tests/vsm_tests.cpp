@@ -361,7 +361,10 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
     std::vector<std::tuple<glm::vec3, glm::vec2, float, float, bool, bool>> ec;
     for (float u : {u_edge, u_lit, u_dark})
       ec.emplace_back(glm::vec3(u, 0.5f, receiver), c, mv, 0.0f, reverse_z, true);
+    // Off the map (u beyond 1): lit, like every filter.
+    ec.emplace_back(glm::vec3(1.5f, 0.5f, receiver), c, mv, 0.0f, reverse_z, true);
     const auto got4 = evsm4.run(ec);
+    EXPECT_EQ(got4[3], 1.0f);
     EXPECT_NEAR(got4[0], 0.5f, 1e-4) << "reverse_z " << reverse_z;
     EXPECT_NEAR(got4[1], 1.0f, 1e-4);
     EXPECT_LT(got4[2], 0.01f);
