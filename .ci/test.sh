@@ -23,7 +23,7 @@ ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
   ctest --test-dir "$PENUMBRA_BUILD" --output-on-failure -j2 -LE cpu "$@" || status=1
 if (($# == 0)); then  # a filtered run (-R ...) covers only part of the library
   tools/penumbra-coverage "$coverage" --include /shaders/penumbra/ --uncovered \
-    --min-lines 99 --min-branches 94 --html "$PENUMBRA_BUILD/shader-coverage-html" || status=1
+    --min-lines 99 --min-branches 97 --html "$PENUMBRA_BUILD/shader-coverage-html" || status=1
   # Mutation testing's quick mode: 12 mutants of the library, each run against the test binaries
   # whose coverage reached its line. The full score is in docs/coverage.md; this checks that the
   # tests still kill most of a sample (a tool that no longer applies its mutants kills none).

@@ -312,5 +312,15 @@ TEST_F(BiasExtremesTest, CubeTexelWorldSizeForResolutionsUpToOne) {
                            [&](size_t i) { return format_tuple(cases[i]); });
 }
 
+// cube_texel_world_size of a NaN direction or a resolution that is not positive: 0.
+TEST_F(BiasExtremesTest, CubeTexelSizeOfBadInputIsZero) {
+  ShaderFunction<float(glm::vec3, float)> texel(kBias, "cube_texel_world_size");
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(texel(glm::vec3(nan, 0.0f, 0.0f), 512.0f), 0.0f);
+  EXPECT_EQ(texel(glm::vec3(1.0f, 0.0f, 0.0f), 0.0f), 0.0f);
+  EXPECT_EQ(texel(glm::vec3(1.0f, 0.0f, 0.0f), -4.0f), 0.0f);
+  EXPECT_EQ(texel(glm::vec3(1.0f, 0.0f, 0.0f), 512.0f), 2.0f / 512.0f);
+}
+
 }  // namespace
 }  // namespace penumbra::testing

@@ -783,6 +783,13 @@ TEST_F(LocalShadowTest, TangentBasisIsRightHandedAndOrthonormalEverywhere) {
   }
   cases.emplace_back(glm::vec3(0.0f, 1e-4f, -1.0f));
   cases.emplace_back(glm::vec3(1.0f, 0.0f, 0.0f));
+  // A zero or non-finite direction gives the basis of +Z.
+  for (const glm::vec3& bad :
+       {glm::vec3(0.0f), glm::vec3(std::numeric_limits<float>::infinity(), 0.0f, 0.0f)}) {
+    const auto [t, b] = basis(bad);
+    EXPECT_EQ(t, glm::vec3(1.0f, 0.0f, 0.0f));
+    EXPECT_EQ(b, glm::vec3(0.0f, 1.0f, 0.0f));
+  }
   const auto got = basis.run(cases);
   for (std::size_t i = 0; i < got.size(); ++i) {
     const glm::dvec3 n = glm::normalize(glm::dvec3(std::get<0>(cases[i])));

@@ -655,6 +655,11 @@ TEST_F(PcssTest, ParametersOutsideTheirRangesFollowTheHeader) {
     EXPECT_EQ(plane(at, 0, 8.0f, 500, 0.3f, texel, false, glm::vec2(0.0f)),
               plane(at, 0, 8.0f, 64, 0.3f, texel, false, glm::vec2(0.0f)));
   }
+  // A coordinate off the map finds no blocker (its average is the receiver's depth).
+  EXPECT_EQ(search(glm::vec3(1.5f, 0.5f, 0.7f), 8.0f, 32, 0.3f, texel, false),
+            (std::tuple<float, int32_t>{0.7f, 0}));
+  EXPECT_EQ(plane(glm::vec3(0.5f, -0.5f, 0.7f), 0, 8.0f, 32, 0.3f, texel, false, glm::vec2(0.0f)),
+            (std::tuple<float, int32_t>{0.7f, 0}));
   // The full filter: a coordinate off the map is lit.
   PcssArrayFn pcss("penumbra/pcss.glsl", "pcss_shadow_array");
   pcss.bind(0, compare_texture({map}, false, true));

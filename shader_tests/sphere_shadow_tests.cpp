@@ -196,6 +196,9 @@ TEST_F(SphereShadowTest, WorldFormsOfSphereLightsAndTheSun) {
   EXPECT_EQ(light(glm::vec3(0), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 0.0f);
   EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
   EXPECT_EQ(sun(glm::vec3(0, 0, 7), glm::vec3(0, 0, 1), 0.01f, glm::vec4(0, 0, 7, 1.5f)), 1.0f);
+  // A sphere far beside the light (the caps surely apart: the early out) hides nothing.
+  EXPECT_EQ(light(glm::vec3(0), glm::vec3(0, 0, 10), 1.0f, glm::vec4(10, 0, 0, 1)), 0.0f);
+  EXPECT_EQ(sun(glm::vec3(0), glm::vec3(0, 0, 1), 0.01f, glm::vec4(10, 0, 0, 1)), 0.0f);
   // A sphere of no size hides nothing, even centred on the receiver.
   EXPECT_EQ(light(glm::vec3(0, 0, 7), glm::vec3(0, 0, 5), 1.0f, glm::vec4(0, 0, 7, 0.0f)), 0.0f);
   EXPECT_EQ(sun(glm::vec3(0, 0, 7), glm::vec3(0, 0, 1), 0.01f, glm::vec4(0, 0, 7, 0.0f)), 0.0f);

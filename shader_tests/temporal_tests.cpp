@@ -208,5 +208,15 @@ TEST_F(TemporalTest, ReprojectionAndSameSurfaceBoundaries) {
   EXPECT_TRUE(same(1.0f, n, 1.0f, n, 0.0f, 0.5f, 1.0f));
 }
 
+// A history with any non-finite component (x, the first one checked, here) gives the current
+// value.
+TEST_F(TemporalTest, NonFiniteHistoryInTheFirstComponentGivesCurrent) {
+  ShaderFunction<glm::vec4(glm::vec4, glm::vec4, glm::vec4, glm::vec4, float)> blend(
+      kTemporal, "temporal_blend");
+  const glm::vec4 current(0.25f, 0.5f, 0.75f, 1.0f);
+  EXPECT_EQ(blend(glm::vec4(kNaN, 0, 0, 0), current, glm::vec4(0), glm::vec4(1), 0.1f), current);
+  EXPECT_EQ(blend(glm::vec4(kInf, 0, 0, 0), current, glm::vec4(0), glm::vec4(1), 0.1f), current);
+}
+
 }  // namespace
 }  // namespace penumbra::testing
