@@ -5,4 +5,6 @@ set(PENUMBRA_TESTING_EXTRA_SOURCES
     ${CMAKE_CURRENT_LIST_DIR}/compare.cpp
     ${CMAKE_CURRENT_LIST_DIR}/generators.cpp
     ${CMAKE_CURRENT_LIST_DIR}/property.cpp
-    ${CMAKE_CURRENT_LIST_DIR}/interval.cpp)
+    ${CMAKE_CURRENT_LIST_DIR}/interval.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/interval_functions.cpp
+    ${CMAKE_CURRENT_LIST_DIR}/interval_compare.cpp)
