@@ -18,15 +18,16 @@
 namespace penumbra::testing::spec {
 
 namespace impl {
-thread_local SpecRules t_rules;
-thread_local bool t_real = false;
-thread_local PathState t_paths;
+ThreadState& thread_state() {
+  thread_local ThreadState s;
+  return s;
+}
 }  // namespace impl
 
 using namespace impl;
 
 const SpecRules& spec_rules() {
-  return t_rules;
+  return thread_state().rules;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -151,7 +152,8 @@ Interval operator/(const Interval& a0, const Interval& b0) {
   if (b.lo_ <= 0.0 && b.hi_ >= 0.0) return Interval::any();  // a divisor that may be 0
   const double blo = std::min(std::fabs(b.lo_), std::fabs(b.hi_));
   const double bhi = std::max(std::fabs(b.lo_), std::fabs(b.hi_));
-  if (!t_real && (blo < 0x1p-126 || bhi > 0x1p126)) return Interval::any();  // no bound stated
+  if (!thread_state().real && (blo < 0x1p-126 || bhi > 0x1p126))
+    return Interval::any();  // no bound stated
   double lo = kInf, hi = -kInf;
   for (const double x : {a.lo_, a.hi_}) {
     for (const double y : {b.lo_, b.hi_}) {
@@ -161,7 +163,7 @@ Interval operator/(const Interval& a0, const Interval& b0) {
       hi = std::max(hi, q);
     }
   }
-  if (t_real) return within(lo, hi);
+  if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - 2.5 * spec_ulp(lo), hi + 2.5 * spec_ulp(hi)));
 }
 
@@ -170,12 +172,12 @@ Interval operator/(const Interval& a0, const Interval& b0) {
 
 SpecBool::operator bool() const {
   if (state_ != State::maybe) return state_ == State::yes;
-  if (!t_paths.active) {
+  if (!thread_state().paths.active) {
     throw Error(
         "a comparison of intervals that overlap cannot be decided outside spec_interval(); "
         "wrap the reference in spec_interval([&] { ... })");
   }
-  PathState& p = t_paths;
+  PathState& p = thread_state().paths;
   if (p.depth < p.path.size()) return p.path[p.depth++];
   p.path.push_back(false);
   ++p.depth;
@@ -225,25 +227,25 @@ namespace detail {
 
 void for_each_spec_path(const SpecRules& rules, const std::function<void()>& run) {
   struct Restore {
-    SpecRules rules = t_rules;
-    PathState paths = t_paths;
-    bool real = t_real;
+    SpecRules rules = thread_state().rules;
+    PathState paths = thread_state().paths;
+    bool real = thread_state().real;
     ~Restore() {
-      t_rules = rules;
-      t_paths = std::move(paths);
-      t_real = real;
+      thread_state().rules = rules;
+      thread_state().paths = std::move(paths);
+      thread_state().real = real;
     }
   } restore;
-  t_rules = rules;
-  t_paths = PathState{.active = true, .path = {}, .depth = 0};
-  t_real = false;
+  thread_state().rules = rules;
+  thread_state().paths = PathState{.active = true, .path = {}, .depth = 0};
+  thread_state().real = false;
   std::size_t runs = 0;
   for (;;) {
-    t_paths.depth = 0;
+    thread_state().paths.depth = 0;
     run();
     ++runs;
-    std::vector<bool>& path = t_paths.path;
-    path.resize(t_paths.depth);
+    std::vector<bool>& path = thread_state().paths.path;
+    path.resize(thread_state().paths.depth);
     while (!path.empty() && path.back()) path.pop_back();
     if (path.empty()) return;
     path.back() = true;

@@ -106,13 +106,13 @@ Interval smoothstep(const Interval& e0, const Interval& e1, const Interval& x) {
 // fma: inherited from OpFMul followed by OpFAdd (fused or not).
 Interval fma(const Interval& a, const Interval& b, const Interval& c) {
   return inherited([&] {
-    if (t_rules.precise && !t_real) {
+    if (thread_state().rules.precise && !thread_state().real) {
       // A product and a sum, each correctly rounded, or the exact a * b + c rounded once.
-      SpecRules hull_rules = t_rules;
+      SpecRules hull_rules = thread_state().rules;
       hull_rules.precise = false;
-      const SpecRules saved = std::exchange(t_rules, hull_rules);
+      const SpecRules saved = std::exchange(thread_state().rules, hull_rules);
       const Interval r = a * b + c;
-      t_rules = saved;
+      thread_state().rules = saved;
       return r;
     }
     return a * b + c;
@@ -161,7 +161,7 @@ Interval inversesqrt(const Interval& x) {
 // sqrt: inherited from 1.0 / inversesqrt(x).
 Interval sqrt(const Interval& x) {
   if (x.is_any() || x.lo_ < 0.0) return Interval::any();
-  if (t_real) {
+  if (thread_state().real) {
     return monotonic(
         x, [](double v) { return std::sqrt(v); }, [](double, double) { return 0.0; }, true);
   }
@@ -172,7 +172,7 @@ Interval sqrt(const Interval& x) {
 Interval pow(const Interval& x, const Interval& y) {
   if (x.is_any() || y.is_any() || x.lo_ < 0.0) return Interval::any();
   if (x.lo_ <= 0.0 && y.lo_ <= 0.0) return Interval::any();
-  if (t_real) {
+  if (thread_state().real) {
     double lo = kInf, hi = -kInf;
     for (const double a : {x.lo_, x.hi_}) {
       for (const double b : {y.lo_, y.hi_}) {
@@ -194,7 +194,7 @@ Interval trig(const Interval& x0, F f, double peak_phase) {
   if (x.is_any() || !std::isfinite(x.lo_) || !std::isfinite(x.hi_)) return Interval::any();
   double err = 0x1p-11;
   if (x.lo_ < -kPi || x.hi_ > kPi) {
-    err = t_rules.trig_abs_error_outside;
+    err = thread_state().rules.trig_abs_error_outside;
     if (std::isnan(err)) return Interval::any();
   }
   // The exact range: the ends, and every peak (f = +-1) between them.
@@ -207,7 +207,7 @@ Interval trig(const Interval& x0, F f, double peak_phase) {
       hi = std::max(hi, v > 0 ? 1.0 : hi);
     }
   }
-  if (t_real) return within(lo, hi);
+  if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - err, hi + err));
 }
 }  // namespace
@@ -221,7 +221,7 @@ Interval cos(const Interval& x) {
 }
 // tan: inherited from sin / cos.
 Interval tan(const Interval& x) {
-  if (t_real) {
+  if (thread_state().real) {
     const double a = std::tan(x.lo_), b = std::tan(x.hi_);
     if (std::floor(x.lo_ / kPi - 0.5) != std::floor(x.hi_ / kPi - 0.5)) return Interval::any();
     return within(std::min(a, b), std::max(a, b));
@@ -239,8 +239,8 @@ Interval atan(const Interval& y, const Interval& x) {
   if (x.is_any() || y.is_any()) return Interval::any();
   if (x.lo_ <= 0.0 && y.lo_ <= 0.0 && y.hi_ >= 0.0) {
     if (x.lo_ == 0.0 && x.hi_ == 0.0 && y.lo_ == 0.0 && y.hi_ == 0.0) return Interval::any();
-    return t_real ? within(-kPi, kPi)
-                  : within(-kPi - 4096 * spec_ulp(kPi), kPi + 4096 * spec_ulp(kPi));
+    return thread_state().real ? within(-kPi, kPi)
+                               : within(-kPi - 4096 * spec_ulp(kPi), kPi + 4096 * spec_ulp(kPi));
   }
   double lo = kInf, hi = -kInf;
   for (const double a : {y.lo_, y.hi_}) {
@@ -250,18 +250,18 @@ Interval atan(const Interval& y, const Interval& x) {
       hi = std::max(hi, v);
     }
   }
-  if (t_real) return within(lo, hi);
+  if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - 4096.0 * spec_ulp(lo), hi + 4096.0 * spec_ulp(hi)));
 }
 // asin, acos: inherited from atan2(x, sqrt(1 - x x)) and atan2(sqrt(1 - x x), x).
 Interval asin(const Interval& x) {
   if (x.is_any() || x.lo_ < -1.0 || x.hi_ > 1.0) return Interval::any();
-  if (t_real) return within(std::asin(x.lo_), std::asin(x.hi_));
+  if (thread_state().real) return within(std::asin(x.lo_), std::asin(x.hi_));
   return inherited([&] { return atan(x, sqrt(Interval(1.0f) - x * x)); });
 }
 Interval acos(const Interval& x) {
   if (x.is_any() || x.lo_ < -1.0 || x.hi_ > 1.0) return Interval::any();
-  if (t_real) return within(std::acos(x.hi_), std::acos(x.lo_));
+  if (thread_state().real) return within(std::acos(x.hi_), std::acos(x.lo_));
   return inherited([&] { return atan(sqrt(Interval(1.0f) - x * x), x); });
 }
 

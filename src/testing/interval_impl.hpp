@@ -27,9 +27,15 @@ struct PathState {
   std::size_t depth = 0;
 };
 
-extern thread_local SpecRules t_rules;
-extern thread_local bool t_real;  // the real mode (see interval.cpp)
-extern thread_local PathState t_paths;
+// The evaluation state of this thread: the rules in force, the real mode (see interval.cpp), the
+// ways through undecided comparisons. One accessor (defined in interval.cpp): a thread_local
+// declared extern across translation units trips GCC's null-pointer sanitizer.
+struct ThreadState {
+  SpecRules rules;
+  bool real = false;
+  PathState paths;
+};
+ThreadState& thread_state();
 
 // The largest float <= v and the smallest float >= v (v a double, possibly infinite).
 inline double float_down(double v) {
@@ -51,12 +57,12 @@ inline double float_up(double v) {
 // the spec mode or to doubles in the real mode.
 inline double round_down(double s, double e) {
   if (!std::isfinite(s)) return s;
-  if (t_real) return e < 0.0 ? std::nextafter(s, -kInf) : s;
+  if (thread_state().real) return e < 0.0 ? std::nextafter(s, -kInf) : s;
   return float_down(e < 0.0 ? std::nextafter(s, -kInf) : s);
 }
 inline double round_up(double s, double e) {
   if (!std::isfinite(s)) return s;
-  if (t_real) return e > 0.0 ? std::nextafter(s, kInf) : s;
+  if (thread_state().real) return e > 0.0 ? std::nextafter(s, kInf) : s;
   return float_up(e > 0.0 ? std::nextafter(s, kInf) : s);
 }
 
@@ -100,7 +106,7 @@ inline Interval make_hull(double lo, double hi) {
 // infinity, one reaching past -FLT_MAX minus infinity.
 inline Interval within(double lo, double hi) {
   if (std::isnan(lo) || std::isnan(hi)) return Interval::any();
-  if (t_real) return make_hull(std::nextafter(lo, -kInf), std::nextafter(hi, kInf));
+  if (thread_state().real) return make_hull(std::nextafter(lo, -kInf), std::nextafter(hi, kInf));
   const double slack_lo = std::fabs(lo) * 0x1p-40, slack_hi = std::fabs(hi) * 0x1p-40;
   double l = lo <= -kFloatMax ? -kInf : float_up(lo - slack_lo);
   double h = hi >= kFloatMax ? kInf : float_down(hi + slack_hi);
@@ -114,7 +120,7 @@ inline bool has_denormal(double lo, double hi) {
 
 // A denormal operand or result may be flushed to zero (unless the rules say they are kept).
 inline Interval flushable(Interval x) {
-  if (t_real || !t_rules.denormals_may_flush || x.is_any()) return x;
+  if (thread_state().real || !thread_state().rules.denormals_may_flush || x.is_any()) return x;
   if (x.count_ > 0) {
     bool denormal = false;
     bool zero = false;
@@ -150,7 +156,7 @@ inline Interval from_candidates(std::vector<double> values) {
 }
 
 inline bool precise_sets(const Interval& a, const Interval& b) {
-  return !t_real && t_rules.precise && a.count_ > 0 && b.count_ > 0;
+  return !thread_state().real && thread_state().rules.precise && a.count_ > 0 && b.count_ > 0;
 }
 
 // A correctly rounded binary operation: `exact` gives the exact result as (s, e).
@@ -187,17 +193,17 @@ inline Interval rounded(const Interval& a0, const Interval& b0, Exact exact) {
 template <class Formula>
 inline Interval inherited(Formula formula) {
   const Interval f = formula();
-  if (t_real) return f;
+  if (thread_state().real) return f;
   if (f.is_any()) return f;
-  t_real = true;
+  thread_state().real = true;
   Interval t;
   try {
     t = formula();
   } catch (...) {
-    t_real = false;
+    thread_state().real = false;
     throw;
   }
-  t_real = false;
+  thread_state().real = false;
   if (t.is_any()) return Interval::any();
   const double e = std::max({t.lo_ - f.lo_, f.hi_ - t.hi_, 0.0});
   return flushable(within(t.lo_ - e, t.hi_ + e));
@@ -212,7 +218,7 @@ inline Interval monotonic(const Interval& x0, F f, Bound bound, bool increasing)
   if (std::isnan(a) || std::isnan(b)) return Interval::any();
   const double lo = increasing ? a : b, hi = increasing ? b : a;
   const double lo_x = increasing ? x.lo_ : x.hi_, hi_x = increasing ? x.hi_ : x.lo_;
-  if (t_real) return within(lo, hi);
+  if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - bound(lo_x, lo), hi + bound(hi_x, hi)));
 }
 
