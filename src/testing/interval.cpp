@@ -84,12 +84,6 @@ bool Interval::contains(float v) const {
   return lo_ <= v && v <= hi_;
 }
 
-double Interval::mid() const {
-  if (is_any()) return std::numeric_limits<double>::quiet_NaN();
-  if (std::isinf(lo_) || std::isinf(hi_)) return lo_ == hi_ ? lo_ : (std::isinf(lo_) ? hi_ : lo_);
-  return 0.5 * lo_ + 0.5 * hi_;
-}
-
 std::uint64_t Interval::width_floats() const {
   if (is_any()) return std::numeric_limits<std::uint64_t>::max();
   if (count_ > 0) return count_;
@@ -154,15 +148,8 @@ Interval operator/(const Interval& a0, const Interval& b0) {
   const double bhi = std::max(std::fabs(b.lo_), std::fabs(b.hi_));
   if (!thread_state().real && (blo < 0x1p-126 || bhi > 0x1p126))
     return Interval::any();  // no bound stated
-  double lo = kInf, hi = -kInf;
-  for (const double x : {a.lo_, a.hi_}) {
-    for (const double y : {b.lo_, b.hi_}) {
-      const double q = x / y;
-      if (std::isnan(q)) return Interval::any();
-      lo = std::min(lo, q);
-      hi = std::max(hi, q);
-    }
-  }
+  const auto [lo, hi] = corner_range(a, b, [](double x, double y) { return x / y; });
+  if (std::isnan(lo)) return Interval::any();
   if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - 2.5 * spec_ulp(lo), hi + 2.5 * spec_ulp(hi)));
 }

@@ -173,14 +173,7 @@ Interval pow(const Interval& x, const Interval& y) {
   if (x.is_any() || y.is_any() || x.lo_ < 0.0) return Interval::any();
   if (x.lo_ <= 0.0 && y.lo_ <= 0.0) return Interval::any();
   if (thread_state().real) {
-    double lo = kInf, hi = -kInf;
-    for (const double a : {x.lo_, x.hi_}) {
-      for (const double b : {y.lo_, y.hi_}) {
-        const double p = std::pow(a, b);
-        lo = std::min(lo, p);
-        hi = std::max(hi, p);
-      }
-    }
+    const auto [lo, hi] = corner_range(x, y, [](double a, double b) { return std::pow(a, b); });
     return within(lo, hi);
   }
   return inherited([&] { return exp2(y * log2(x)); });
@@ -242,14 +235,7 @@ Interval atan(const Interval& y, const Interval& x) {
     return thread_state().real ? within(-kPi, kPi)
                                : within(-kPi - 4096 * spec_ulp(kPi), kPi + 4096 * spec_ulp(kPi));
   }
-  double lo = kInf, hi = -kInf;
-  for (const double a : {y.lo_, y.hi_}) {
-    for (const double b : {x.lo_, x.hi_}) {
-      const double v = std::atan2(a, b);
-      lo = std::min(lo, v);
-      hi = std::max(hi, v);
-    }
-  }
+  const auto [lo, hi] = corner_range(y, x, [](double a, double b) { return std::atan2(a, b); });
   if (thread_state().real) return within(lo, hi);
   return flushable(within(lo - 4096.0 * spec_ulp(lo), hi + 4096.0 * spec_ulp(hi)));
 }

@@ -188,6 +188,23 @@ inline Interval rounded(const Interval& a0, const Interval& b0, Exact exact) {
   return flushable(make_hull(lo, hi));
 }
 
+// The range of f over the corners of the box [a.lo, a.hi] x [b.lo, b.hi], for an f monotonic in
+// each argument over the box (a quotient away from 0, pow for x > 0, atan2 off its cut); both
+// NaN when f is NaN at a corner.
+template <class F>
+inline std::pair<double, double> corner_range(const Interval& a, const Interval& b, F f) {
+  double lo = kInf, hi = -kInf;
+  for (const double x : {a.lo_, a.hi_}) {
+    for (const double y : {b.lo_, b.hi_}) {
+      const double v = f(x, y);
+      if (std::isnan(v)) return {v, v};
+      lo = std::min(lo, v);
+      hi = std::max(hi, v);
+    }
+  }
+  return {lo, hi};
+}
+
 // The spec's "inherited from a formula": anything within E of the exact value, E the largest
 // distance from it of what the formula may return under the rules.
 template <class Formula>

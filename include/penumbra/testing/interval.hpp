@@ -102,8 +102,6 @@ class Interval {
   std::span<const float> candidates() const { return {points_.data(), count_}; }
   // Whether a device may return v (+0 and -0 are the same; NaN only for "any").
   bool contains(float v) const;
-  // The middle of the hull (NaN for "any"); for printing and the double evaluation.
-  double mid() const;
   // How many floats the interval accepts (1 for a single value; saturates at UINT64_MAX).
   std::uint64_t width_floats() const;
   // "[0x1.8p-1, 0x1.800002p-1] (2 floats)", "{0.5, 0.50000006}", "any".
