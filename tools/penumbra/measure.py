@@ -32,17 +32,19 @@ def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
             path_frames=8):
     """Returns a dict: the objectives (OBJECTIVES), still_error, per-light details, the
     device and the passes' ms. One penumbra-reference run: the still frame, the path, then
-    `frames` frames timed with a renderer as penumbra-view builds it."""
+    `frames` frames timed with a renderer as penumbra-view builds it (0: none, and ms is
+    None)."""
     os.makedirs(work, exist_ok=True)
     size_arg = ["--size", size] if size else []
     rout = os.path.join(work, "reference")
     run([tools.reference, "--scene", scene, "--out", rout, "--flicker", path, "--flicker-frames",
-         str(path_frames), "--flicker-truth", "--timing-frames", str(frames), "--no-images"] +
+         str(path_frames), "--flicker-truth", "--no-images"] +
+        (["--timing-frames", str(frames)] if frames else []) +
         size_arg +
         setargs(sets))
     with open(os.path.join(rout, "metrics.json")) as f:
         m = json.load(f)
-    return score(m, m["timings"]["passes"], m["device"], path)
+    return score(m, m["timings"]["passes"] if frames else None, m["device"], path)
 
 
 def score(m, passes, device, path):
@@ -68,7 +70,7 @@ def score(m, passes, device, path):
         return max(vals) if vals else 0.0
 
     return {
-        "ms": sum(passes.values()),
+        "ms": sum(passes.values()) if passes is not None else None,
         "path_error": path_err,
         "flicker": excess / truth_edges if truth_edges else 0.0,
         "acne": worst("acne"),

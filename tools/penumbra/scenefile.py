@@ -2,6 +2,8 @@
 singleton tables ([shadows], [contact], ...) set to new values, every other line and comment kept,
 written atomically (a temporary file renamed over the old one), so a failure leaves the old file
 whole."""
+import hashlib
+import json
 import os
 import re
 import tempfile
@@ -62,6 +64,14 @@ class Features:
 
 HEADER = re.compile(r"^\s*\[([A-Za-z_][A-Za-z0-9_]*)\]\s*(#.*)?$")
 ANY_HEADER = re.compile(r"^\s*\[")
+
+
+def content_hash(path):
+    """A scene's identity for stored results: its values, not its comments or layout, and not
+    its [tune] budget (which changes a pick, not a measurement)."""
+    content = {k: v for k, v in load(path).items() if k != "tune"}
+    return hashlib.sha256(json.dumps(content, sort_keys=True, default=str)
+                          .encode()).hexdigest()[:12]
 
 
 def toml_value(value):

@@ -1,0 +1,50 @@
+"""The one-knob sweep: a scene's defaults, then one setting changed at a time. penumbra-bench
+measures it as its own trade; penumbra-tune measures it beside its search, scored the same way,
+to show that the search's frontier covers it."""
+
+# A set whose key is LOCAL_MAPS scales every spot's and point light's map resolution (a rewritten
+# copy of the scene file: the parameter table has no per-light keys).
+LOCAL_MAPS = "local-maps-scale"
+
+
+def configurations(has_sun, has_contact, quick, max_map, has_local=False):
+    """(label, sets) pairs: the scene's defaults first, then one change at a time (sets: a list
+    of (key, value text))."""
+    c = [("defaults", [])]
+    c += [("hard", [("shadows.filter", "hard")])]
+    radii = [1] if quick else [0, 1, 2, 3, 5]
+    c += [(f"pcf r={r}", [("shadows.filter", "pcf"), ("shadows.pcf_radius", str(r))]) for r in radii]
+    taps = [16] if quick else [8, 16, 32]
+    c += [(f"poisson {t}", [("shadows.filter", "poisson"), ("shadows.poisson_taps", str(t))])
+          for t in taps]
+    tiers = ["medium"] if quick else ["low", "medium", "high"]
+    c += [(f"pcss {q}", [("shadows.filter", "pcss"), ("shadows.pcss_quality", q)]) for q in tiers]
+    if has_sun:
+        # EVSM2 on the sun's cascades: the moments pass, its blur and the moment format.
+        blurs = [0] if quick else [0, 1, 2]
+        c += [(f"evsm2 blur={b}", [("shadows.filter", "evsm2"), ("shadows.evsm_blur", str(b))])
+              for b in blurs]
+        if not quick:
+            c += [("evsm2 fp32", [("shadows.filter", "evsm2"), ("shadows.evsm_fp16", "false")])]
+    if quick:
+        return c
+    if has_contact:
+        c += [(f"contact {s}", [("contact.steps", str(s))]) for s in (0, 8, 16, 32)]
+    if has_sun:
+        c += [(f"cascades {n}", [("shadows.cascades", str(n))]) for n in (1, 2, 3, 4)]
+        c += [(f"map {m}", [("shadows.resolution", str(m))])
+              for m in (512, 1024, 2048, 4096, 8192) if m <= max_map]
+        c += [(f"fit {f}", [("shadows.fit", f)]) for f in ("box", "camera_sphere", "slice_sphere")]
+        c += [("constant width", [("shadows.constant_filter_width", "true")])]
+    if has_local:
+        c += [(f"local maps x{f}", [(LOCAL_MAPS, str(f))]) for f in (0.5, 2)]
+    # The biases (every light): half and twice the defaults, and none.
+    c += [(f"normal offset {t}", [("shadows.normal_offset_texels", t)]) for t in ("0", "0.75", "3")]
+    c += [(f"slope bias {t}", [("shadows.slope_bias", t)]) for t in ("0", "1", "4")]
+    c += [(f"constant bias {t}", [("shadows.constant_bias", t)]) for t in ("0", "0.002")]
+    # Temporal accumulation: off, and the new frame's share (the error is the first frame's,
+    # which has no history; the flicker column shows what it buys).
+    c += [("temporal off", [("shadows.temporal", "false")])]
+    c += [(f"temporal w={w}", [("shadows.temporal", "true"), ("shadows.temporal_weight", w)])
+          for w in ("0.1", "0.3", "0.5")]
+    return c
