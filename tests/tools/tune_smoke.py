@@ -207,6 +207,78 @@ r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.
 check(r.returncode != 0 and "budgeted.toml:27" in r.stderr and "budget_mss" in r.stderr,
       f"[tune] typo:\n{r.stderr}")
 
+# The one-knob sweep beside the search: measured, scored like it, covered or listed.
+r = run(["--trials", "4", "--out", out, "--one-knob"])
+check(r.returncode == 0 and "one-knob sweep: the search covers" in r.stdout,
+      f"--one-knob:\n{r.stdout}{r.stderr}")
+if os.path.isfile(os.path.join(out, "oneknob.csv")):
+    with open(os.path.join(out, "oneknob.csv")) as f:
+        knobs = list(csv.DictReader(f))
+    # --quick's sweep: hard, pcf r=1, poisson 16, pcss medium, evsm2 blur=0 (the scene has a sun).
+    check([k["label"] for k in knobs] == ["hard", "pcf r=1", "poisson 16", "pcss medium",
+                                          "evsm2 blur=0"], f"one-knob labels {knobs}")
+    with open(os.path.join(out, "tune.json")) as f:
+        one = json.load(f).get("one_knob", {})
+    check(one.get("points") == 5 and one.get("covered", -1) + len(one.get("uncovered", [])) == 5,
+          f"tune.json one_knob: {one}")
+else:
+    check(False, "--one-knob wrote no oneknob.csv")
+
+# A study started from an earlier run's points: they join it, the defaults are measured again.
+r = run(["--trials", "5", "--out", os.path.join(work, "imported"), "--import",
+         os.path.join(out, "points.csv")])
+check(r.returncode == 0 and "imported 4 points" in r.stdout and
+      "measured in the imported run at" in r.stdout, f"--import:\n{r.stdout}{r.stderr}")
+check(len(points(os.path.join(work, "imported"))) == 1,
+      "--import measured more than the defaults and one new point")
+
+# --replay, CI's frontier check: checked-in points with the settings and a contender whose
+# recorded cost is lower. The scene with a 0.2 m constant bias leaves a wide lit gap under the
+# box; the same settings with the scene's bias close it.
+with open(os.path.join(out, "points.csv")) as f:
+    rows = list(csv.DictReader(f))
+base_row = next(row for row in rows if row["defaults"] == "True")
+biased = ";".join(kv if not kv.startswith("shadows.constant_bias=") else
+                  "shadows.constant_bias=0.2" for kv in base_row["sets"].split(";"))
+check(biased != base_row["sets"], f"no constant bias in {base_row['sets']}")
+
+
+def replay_data(name, cheap_sets, dear_sets):
+    """A points.csv of two points with equal recorded errors: `cheap_sets` at 1 ms, `dear_sets`
+    at 2 ms (the replay ranks contenders by the recorded numbers, then measures them)."""
+    path = os.path.join(work, name)
+    with open(path, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(base_row))
+        w.writeheader()
+        w.writerow({**base_row, "trial": "0", "ms": "1", "sets": cheap_sets,
+                    "path_error": "0.001"})
+        w.writerow({**base_row, "trial": "1", "ms": "2", "sets": dear_sets,
+                    "path_error": "0.002"})
+    return path
+
+
+def replay(scene_path, data):
+    return subprocess.run([sys.executable, tune, "--scene", scene_path, "--quick", "--size",
+                           "192x108", "--path-frames", "2", "--replay", data],
+                          capture_output=True, text=True, env=env)
+
+
+# The scene's settings (the dearer point) against a cheaper point with the huge bias: no beat.
+r = replay(scene, replay_data("replay-ok.csv", biased, base_row["sets"]))
+check(r.returncode == 0 and "no contender beats its settings" in r.stdout,
+      f"--replay of settings on the frontier:\n{r.stdout}{r.stderr}")
+# The scene with the huge bias (the dearer point) against the scene's bias at less cost: beaten.
+stale = os.path.join(work, "stale.toml")
+with open(stale, "w") as f:
+    f.write(SCENE.replace("resolution = 512", "resolution = 512\nconstant_bias = 0.2"))
+r = replay(stale, replay_data("replay-stale.csv", base_row["sets"], biased))
+check(r.returncode == 1 and "now beats the settings" in r.stdout,
+      f"--replay of stale settings:\n{r.stdout}{r.stderr}")
+# Settings that are not among the points: the scene changed since it was tuned.
+r = replay(stale, replay_data("replay-other.csv", base_row["sets"], base_row["sets"]))
+check(r.returncode == 1 and "are not among the 2 points" in r.stdout,
+      f"--replay of settings not in the data:\n{r.stdout}{r.stderr}")
+
 # The patcher: a key replaced in place, one added to its table, a table added; nothing else.
 text = '# top\n[shadows]\nfilter = "pcf"  # old\n\n[[material]]\nname = "m"\n'
 got = scenefile.patched_text(text, {"shadows.filter": "hard", "shadows.pcf_radius": 2,
