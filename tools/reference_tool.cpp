@@ -385,8 +385,11 @@ int run(int argc, char** argv) {
       std::printf("  acne %.3f%% of %llu clear receivers  leaks %.3f%%  contact gap ",
                   100.0 * f.acne, (unsigned long long)f.clear_receivers, 100.0 * f.leak);
       if (std::isfinite(f.contact_gap_texels))
-        std::printf("%.2f texels (%.4g m) over %llu contact receivers\n", f.contact_gap_texels,
-                    f.contact_gap_world, (unsigned long long)f.contact_receivers);
+        std::printf(
+            "%.2f texels (%.4g m; %.2f texels across the light) over %llu contact "
+            "receivers\n",
+            f.contact_gap_texels, f.contact_gap_world, f.contact_gap_map_texels,
+            (unsigned long long)f.contact_receivers);
       else
         std::printf("not seen (no umbra receiver near a contact)\n");
     }

@@ -58,6 +58,7 @@ CasterProbe probe_casters(const Tracer& tracer, const Receivers& receivers, cons
   out.caster_in_reach.assign(n, 0);
   out.light_in_reach.assign(n, 0);
   out.contact_distance.assign(n, kNaN);
+  out.light_cosine.assign(n, kNaN);
   const glm::dvec3 centre = light.position - tracer.origin();
   const glm::dvec3 sun_dir = glm::normalize(light.direction_to_light);
   std::atomic<size_t> next{0};
@@ -84,9 +85,10 @@ CasterProbe probe_casters(const Tracer& tracer, const Receivers& receivers, cons
         // Along the surface: the ray's component in the tangent plane, over the blocker distance.
         const glm::dvec3 l_tangent = l - glm::dot(l, nrm) * nrm;
         out.contact_distance[i] = blocked ? float(d * glm::length(l_tangent)) : kInf;
+        const double ln = glm::dot(l, nrm);
+        out.light_cosine[i] = float(ln);
         bool caster = blocked, light_seen = !blocked;
         const double r = std::isfinite(reach[i]) ? std::max(0.0, double(reach[i])) : 0.0;
-        const double ln = glm::dot(l, nrm);
         if (r > 0.0 && ln > 1e-6) {
           const glm::dvec3 e1 = across(l), e2 = glm::cross(l, e1);
           for (uint32_t k = 0; k < ring && !(caster && light_seen); ++k) {
@@ -124,6 +126,7 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
   check_size(reference.value.size(), n, "the reference");
   check_size(probe.blocker_distance.size(), n, "the caster probe");
   check_size(probe.contact_distance.size(), n, "the caster probe's contacts");
+  check_size(probe.light_cosine.size(), n, "the caster probe's cosines");
   check_size(texel_world.size(), n, "the texel sizes");
   if (!(options.max_contact_texels > 0.0) || !(options.seed_texels > 0.0))
     throw Error("failure modes: max_contact_texels and seed_texels must be > 0");
@@ -180,7 +183,7 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
         queue.push_back(j);
       }
   }
-  std::vector<double> gap_texels, gap_world;
+  std::vector<double> gap_texels, gap_world, gap_map;
   for (size_t i = 0; i < n; ++i) {
     if (!measured(i)) continue;
     const double r = reference.value[i], g = v[i];
@@ -188,6 +191,7 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
       ++f.gap_receivers;
       gap_texels.push_back(x_texels[i]);
       gap_world.push_back(double(probe.contact_distance[i]));
+      gap_map.push_back(x_texels[i] * double(probe.light_cosine[i]));
       if (modes) (*modes)[i] = FailureMode::gap;
       continue;
     }
@@ -202,8 +206,10 @@ FailureModes compute_failure_modes(std::span<const float> v, const Visibility& r
     // The gap's width: how far from the contact its receivers reach (the 95th percentile, so
     // that a few far pixels a thin lit sliver connects do not make it; the maximum apart).
     f.contact_gap_texels = f.contact_gap_world = f.contact_gap_max_texels = 0.0;
+    f.contact_gap_map_texels = 0.0;
     if (!gap_texels.empty()) {
       f.contact_gap_texels = stats::quantile(gap_texels, 0.95);
+      f.contact_gap_map_texels = stats::quantile(gap_map, 0.95);
       f.contact_gap_world = stats::quantile(gap_world, 0.95);
       f.contact_gap_max_texels = *std::max_element(gap_texels.begin(), gap_texels.end());
     }
@@ -222,6 +228,7 @@ std::string FailureModes::to_json() const {
          ", \"contact_gap_texels\": " + json::number(contact_gap_texels) +
          ", \"contact_gap_world\": " + json::number(contact_gap_world) +
          ", \"contact_gap_max_texels\": " + json::number(contact_gap_max_texels) +
+         ", \"contact_gap_map_texels\": " + json::number(contact_gap_map_texels) +
          ", \"contact_receivers\": " + std::to_string(contact_receivers) +
          ", \"gap_receivers\": " + std::to_string(gap_receivers);
 }

@@ -60,6 +60,8 @@ TEST(FailureModes, BlockerAndContactDistancesMatchTheGeometry) {
       // plane that is x - 0.5.
       ASSERT_NEAR(probe.blocker_distance[i], (x - 0.5) / std::cos(kElevation), 2e-4) << x;
       ASSERT_NEAR(probe.contact_distance[i], x - 0.5, 2e-4) << x;
+      // The plane's normal against the ray to the sun 30 degrees up.
+      ASSERT_NEAR(probe.light_cosine[i], std::sin(kElevation), 1e-6) << x;
       ASSERT_EQ(probe.caster_in_reach[i], 1);
     } else if (x > kShadowEnd + 0.01) {
       ASSERT_TRUE(std::isinf(probe.blocker_distance[i])) << x;
@@ -98,6 +100,10 @@ TEST(FailureModes, AKnownBiasShowsAKnownContactGap) {
     EXPECT_NEAR(f.contact_gap_max_texels, want, 0.06) << "bias " << bias;
     EXPECT_NEAR(f.contact_gap_texels, 0.95 * want, 0.06) << "bias " << bias;
     EXPECT_NEAR(f.contact_gap_world, 0.95 * want * kTexel, 0.06 * kTexel) << "bias " << bias;
+    // Across the light, in the map's plane: b cos 30deg along the plane is b cos 30deg sin 30deg
+    // across the light (the depth bias b along the light, seen from the side).
+    EXPECT_NEAR(f.contact_gap_map_texels, 0.95 * want * std::sin(kElevation), 0.03)
+        << "bias " << bias;
     EXPECT_EQ(f.leak_receivers, 0u) << "the gap is not a leak, bias " << bias;
     EXPECT_EQ(f.acne_receivers, 0u);
     EXPECT_NEAR(double(f.contact_receivers), 0.64 / 0.0005, 2.0);  // within 64 texels
@@ -180,6 +186,16 @@ TEST(FailureModes, NoContactSeenIsNaNAndBadInputIsNamed) {
   EXPECT_TRUE(std::isnan(f.contact_gap_texels));
   EXPECT_EQ(f.contact_receivers, 0u);
   EXPECT_NE(f.to_json().find("\"contact_gap_texels\": null"), std::string::npos);
+  EXPECT_NE(f.to_json().find("\"contact_gap_map_texels\": null"), std::string::npos);
+  try {
+    probe.light_cosine.pop_back();
+    compute_failure_modes(truth.value, truth, classes, probe, s.texels(), 0);
+    FAIL() << "a probe without a cosine per receiver must be refused";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("the caster probe's cosines"), std::string::npos)
+        << e.what();
+  }
+  probe.light_cosine.push_back(0.5f);
   try {
     compute_failure_modes(truth.value, truth, classes, probe, std::vector<float>(3, 1.0f), 0);
     FAIL() << "a texel array of the wrong size must be refused";

@@ -77,12 +77,14 @@ def score(m, passes, device, path):
         "gap": worst("contact_gap_texels"),
         "still_error": still,
         "leak": worst("leak"),
+        "gap_map": worst("contact_gap_map_texels"),
         "receivers": weight,
         "seconds": m.get("seconds", {}),
         "device": device,
         "passes": passes,
         "lights": {l["light"]: {k: l.get(k) for k in
                                 ("mean_abs", "acne", "leak", "contact_gap_texels",
+                                 "contact_gap_map_texels",
                                  "contact_gap_world", "false_light", "false_shadow")}
                    for l in lights},
     }

@@ -27,3 +27,13 @@ def beaten_by(d, points, cost, errors, relative=0.05, absolute=None):
         if any(p[k] < d[k] * (1.0 - relative) - absolute.get(k, 0.0) for k in errors):
             out.append(p)
     return out
+
+
+def matched_by(p, points, cost, errors, relative=0.05, absolute=None):
+    """The cheapest of `points` that matches or beats `p`: its cost no more than p's beyond the
+    margin, and no error objective worse than p's beyond the margin plus its floor. None when no
+    point does (p lies where the points have not reached)."""
+    absolute = absolute or {}
+    ok = [q for q in points if q[cost] <= p[cost] * (1.0 + relative) and
+          all(q[k] <= p[k] * (1.0 + relative) + absolute.get(k, 0.0) for k in errors)]
+    return min(ok, key=lambda q: q[cost]) if ok else None

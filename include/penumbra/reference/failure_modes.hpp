@@ -19,7 +19,8 @@
 //               is the ones the GPU lights (V >= 0.5) that are connected, through such lit
 //               receivers (4-neighbours in the image), to one within seed_texels of the contact;
 //               its width is how far from the contact they reach: the 95th percentile of their
-//               distances, in texels and in metres (and the largest, apart).
+//               distances, in texels and in metres (and the largest, apart), and the same
+//               across the light, in the map's plane (contact_gap_map_texels).
 //               Lit speckles off the contact are not the gap (they are leaks, below).
 //   leak        false light (V > R + t) outside the gap on receivers the truth puts in full
 //               shadow (R = 0) with the light's centre hidden from every point of the same ring
@@ -54,6 +55,10 @@ struct CasterProbe {
   // The distance along the surface from the receiver to where its blocker meets it (see the
   // contact gap above), metres; +inf without a blocker, NaN where not probed.
   std::vector<float> contact_distance;
+  // The cosine between the receiver's normal (turned towards the light) and the ray to the
+  // light's centre; NaN where not probed. A distance x along the surface towards the contact is
+  // x * light_cosine across the light, in the plane of the light's map.
+  std::vector<float> light_cosine;
 };
 
 // reach: per receiver, the filter's reach in world units (0 probes the centre ray only; NaN
@@ -80,6 +85,11 @@ struct FailureModes {
   double contact_gap_texels = std::numeric_limits<double>::quiet_NaN();
   double contact_gap_world = std::numeric_limits<double>::quiet_NaN();
   double contact_gap_max_texels = std::numeric_limits<double>::quiet_NaN();
+  // The same gap as the light's map sees it: the 95th percentile of the gap receivers' distances
+  // from the contact projected across the light (along the surface times light_cosine), in
+  // texels. A map resolves its shadow's edge to about a texel in its own plane; on a receiver
+  // the light grazes, that texel is 1 / light_cosine texels long along the surface.
+  double contact_gap_map_texels = std::numeric_limits<double>::quiet_NaN();
   std::string to_json() const;  // the members above as JSON fields (no braces)
 };
 
