@@ -193,13 +193,16 @@ r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.
 with open(os.path.join(work, "b", "tune.json")) as f:
     measured_on = json.load(f)["device"]
 if "NVIDIA H200" not in measured_on:
-    check("budget_ms = 1 is for NVIDIA H200" in r.stdout and "only its max_* apply" in r.stdout,
+    # On another device the defaults' own GPU time stands in for budget_ms.
+    check("budget_ms = 1 is for NVIDIA H200" in r.stdout and "stands in for it" in r.stdout and
+          "the defaults' GPU time for budget_ms): ms <= " in r.stdout,
           f"[tune] budget_ms for another device:\n{r.stdout}{r.stderr}")
-check("budget (the scene's [tune]): " in r.stdout and "path_error <= 0.0" in r.stdout,
+check("budget (the scene's [tune]" in r.stdout and "path_error <= 0.0" in r.stdout,
       f"[tune] not used:\n{r.stdout}{r.stderr}")
 check(r.returncode != 0 and "the defaults miss it: path_error" in r.stdout,
       f"--check-defaults with defaults that miss [tune]:\n{r.stdout}{r.stderr}")
-check("no measured point meets path_error <= 0.0" in r.stderr, f"[tune] impossible:\n{r.stderr}")
+check("no measured point meets " in r.stderr and "path_error <= 0.0" in r.stderr,
+      f"[tune] impossible:\n{r.stderr}")
 with open(budgeted, "w") as f:
     f.write(SCENE + "\n[tune]\nbudget_mss = 2\n")
 r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.join(work, "b2")],
