@@ -289,6 +289,13 @@ got = scenefile.patched_text(text, {"shadows.filter": "hard", "shadows.pcf_radiu
 want = ('# top\n[shadows]\nfilter = "hard"  # n\npcf_radius = 2  # n\ntemporal = true  # n\n\n'
         '[[material]]\nname = "m"\n\n[contact]\nsteps = 0  # n\n')
 check(got == want, f"patched text:\n{got!r}\nwanted\n{want!r}")
+# A new file gets the permissions open() would give it, not the temporary file's private ones.
+fresh = os.path.join(work, "fresh.txt")
+scenefile.write_atomic(fresh, "x")
+umask = os.umask(0)
+os.umask(umask)
+check(os.stat(fresh).st_mode & 0o777 == 0o666 & ~umask,
+      f"a new file written atomically has mode {oct(os.stat(fresh).st_mode & 0o777)}")
 try:
     scenefile.write_atomic(os.path.join(work, "no-such-dir", "x.toml"), "x")
     check(False, "a write into a missing folder must fail")
