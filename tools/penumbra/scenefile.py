@@ -74,6 +74,13 @@ def content_hash(path):
                           .encode()).hexdigest()[:12]
 
 
+def tune_limits(data):
+    """The max_* limits of a scene's [tune] table (objective -> value): a point that misses one
+    is no choice for the scene, so it beats no settings."""
+    return {k[len("max_"):]: float(v) for k, v in data.get("tune", {}).items()
+            if k.startswith("max_")}
+
+
 def toml_value(value):
     """A Python value as TOML writes it."""
     if isinstance(value, bool):
