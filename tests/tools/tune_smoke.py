@@ -226,14 +226,24 @@ if os.path.isfile(os.path.join(out, "oneknob.csv")):
           f"tune.json one_knob: {one}")
 else:
     check(False, "--one-knob wrote no oneknob.csv")
+# The sweep's points seed the search (all five fit its space), marked apart from its own points
+# and not counted in --trials: one more trial measures one new point, and seeds nothing again.
+check("the search starts from 5 of the sweep's points" in r.stdout, f"seeding:\n{r.stdout}")
+with open(os.path.join(out, "points.csv")) as f:
+    seeds = [row["seed"] for row in csv.DictReader(f) if row["seed"]]
+check(len(seeds) == 5, f"seeded rows in points.csv: {seeds}")
+before = len(points(out))
+r = run(["--trials", "5", "--out", out, "--one-knob"])
+check(r.returncode == 0 and len(points(out)) == before + 1 and "starts from" not in r.stdout,
+      f"a resumed seeded run measured {len(points(out)) - before} points:\n{r.stdout}{r.stderr}")
 
 # A study started from an earlier run's points: they join it, the defaults are measured again.
 r = run(["--trials", "5", "--out", os.path.join(work, "imported"), "--import",
          os.path.join(out, "points.csv")])
-check(r.returncode == 0 and "imported 4 points" in r.stdout and
+check(r.returncode == 0 and "imported 10 points" in r.stdout and
       "measured in the imported run at" in r.stdout, f"--import:\n{r.stdout}{r.stderr}")
 check(len(points(os.path.join(work, "imported"))) == 1,
-      "--import measured more than the defaults and one new point")
+      "--import measured more than the defaults")
 
 # --replay, CI's frontier check: checked-in points with the settings and a contender whose
 # recorded cost is lower. The scene with a 0.2 m constant bias leaves a wide lit gap under the
