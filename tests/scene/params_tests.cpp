@@ -299,13 +299,17 @@ TEST(Params, UnusedRowsSayWhyForEachShippedScene) {
   EXPECT_EQ(reason(indoor, "shadows.max_distance"), "") << "it fits point lights too";
   EXPECT_EQ(reason(indoor, "camera.fov_y"), "");
 
-  const Scene def = load_scene(find_scene("default"));  // hard sun, cascades, temporal off
+  const Scene def = load_scene(find_scene("default"));  // hard sun, cascades, temporal on
   EXPECT_EQ(reason(def, "shadows.cascades"), "");
   EXPECT_EQ(reason(def, "shadows.clipmap_levels"), "layout is cascades");
   EXPECT_EQ(reason(def, "shadows.pcf_radius"), "no light uses pcf or poisson");
   EXPECT_EQ(reason(def, "shadows.evsm_blur"), "no light uses evsm2");
-  EXPECT_EQ(reason(def, "shadows.temporal_weight"), "temporal is off");
+  EXPECT_EQ(reason(def, "shadows.temporal_weight"), "");
   EXPECT_EQ(reason(def, "contact.thickness"), "");
+
+  const Scene space = load_scene(find_scene("space"));  // a point light, temporal off
+  EXPECT_EQ(reason(space, "shadows.temporal_weight"), "temporal is off");
+  EXPECT_EQ(reason(space, "shadows.cascades"), "no sun");
 
   const Scene grazing = load_scene(find_scene("grazing"));  // pcss, temporal, contact off
   EXPECT_EQ(reason(grazing, "shadows.pcss_quality"), "");
