@@ -13,9 +13,9 @@ coverage=$(realpath -m "$PENUMBRA_BUILD/shader-coverage")
   "-DPENUMBRA_SHADER_COVERAGE_DIR=$coverage"
 rm -rf "$coverage" "$PENUMBRA_BUILD/shader-coverage-html"
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
-# The fuzzer's random parts get 25 s each here (45 s by default): its seeded corpus runs whole
+# The fuzzer's random parts get 20 s each here (45 s by default): its seeded corpus runs whole
 # either way, and the 15-minute budget of this script holds the frontier replays of issue 33.
-export PENUMBRA_FUZZ_SECONDS=${PENUMBRA_FUZZ_SECONDS:-25}
+export PENUMBRA_FUZZ_SECONDS=${PENUMBRA_FUZZ_SECONDS:-20}
 # CPU-only tests run with leak detection. Tests that load a Vulkan driver run without it: Mesa's
 # lavapipe and the validation layer leave a few hundred bytes behind in modules that are already
 # unloaded at exit, which LeakSanitizer cannot attribute or suppress by name.
@@ -27,12 +27,12 @@ ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} \
 if (($# == 0)); then  # a filtered run (-R ...) covers only part of the library
   tools/penumbra-coverage "$coverage" --include /shaders/penumbra/ --uncovered \
     --min-lines 99 --min-branches 97 --html "$PENUMBRA_BUILD/shader-coverage-html" || status=1
-  # Mutation testing's quick mode: 12 mutants of the library, each run against the test binaries
+  # Mutation testing's quick mode: 8 mutants of the library, each run against the test binaries
   # whose coverage reached its line. The full score is in docs/coverage.md; this checks that the
   # tests still kill most of a sample (a tool that no longer applies its mutants kills none).
   rm -f "$PENUMBRA_BUILD/mutate-quick.jsonl"
   ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} tools/penumbra-mutate --build "$PENUMBRA_BUILD" \
-    --coverage "$coverage" --quick 12 --min-score 50 \
+    --coverage "$coverage" --quick 8 --min-score 50 \
     --results "$PENUMBRA_BUILD/mutate-quick.jsonl" || status=1
 fi
 # The package as a user gets it: install into a fresh prefix, then configure, build and run the
