@@ -26,6 +26,11 @@ d = {"ms": 6.47, "e": 0.00316, "f": 0.00128}
 # grazing's case: better on e by 13%, worse on f by less than the floor -> beats.
 p = {"ms": 6.43, "e": 0.00275, "f": 0.00162}
 check(pareto.beaten_by(d, [d, p], "ms", errors, 0.05, floors) == [p], "within-floor worse beats")
+# the same point over a [tune] limit on f -> no choice for the scene, beats nothing.
+check(pareto.beaten_by(d, [d, p], "ms", errors, 0.05, floors, {"f": 0.0015}) == [],
+      "a point over a limit beats")
+check(pareto.beaten_by(d, [d, p], "ms", errors, 0.05, floors, {"f": 0.002}) == [p],
+      "a point within the limits does not beat")
 # worse on f beyond 5% and the floor -> does not beat.
 q = {"ms": 6.43, "e": 0.00275, "f": 0.0030}
 check(pareto.beaten_by(d, [d, q], "ms", errors, 0.05, floors) == [], "worse beyond the margin")
