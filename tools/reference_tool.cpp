@@ -13,6 +13,7 @@
 #include <penumbra/core/json.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/gpu_lock.hpp>
 #include <penumbra/gpu/validation.hpp>
 #include <penumbra/reference/frame.hpp>
 #include <penumbra/reference/temporal.hpp>
@@ -331,6 +332,9 @@ int run(int argc, char** argv) {
     // So: at least 3 frames and 0.3 s, then until a frame's GPU time is within 5% of the one
     // before it (the clock has settled), at most 3 s. A CPU driver (lavapipe) has no such clock
     // and its frame times never settle that closely: one frame.
+    // Other processes sharing the GPU (penumbra-tune --jobs) submit nothing while this one
+    // warms up and times (PENUMBRA_GPU_LOCK; unset, nothing is locked).
+    const penumbra::gpu::ExclusiveGpu alone;
     const auto warm_start = std::chrono::steady_clock::now();
     const auto since = [&] { return std::chrono::steady_clock::now() - warm_start; };
     uint32_t warm = 0;

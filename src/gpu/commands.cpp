@@ -2,6 +2,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/commands.hpp>
+#include <penumbra/gpu/gpu_lock.hpp>
 
 namespace penumbra::gpu {
 
@@ -57,6 +58,7 @@ void CommandRecorder::submit_and_wait() {
   si.commandBufferInfoCount = 1;
   si.pCommandBufferInfos = &cbi;
   check(vkResetFences(ctx_.device(), 1, &fence_), "vkResetFences");
+  const SharedGpu shared;  // another process timing its frames waits (PENUMBRA_GPU_LOCK)
   check(vkQueueSubmit2(ctx_.queue(), 1, &si, fence_), "vkQueueSubmit2");
   check(vkWaitForFences(ctx_.device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
 }

@@ -210,10 +210,14 @@ r = subprocess.run([sys.executable, tune, "--scene", budgeted, "--out", os.path.
 check(r.returncode != 0 and "budgeted.toml:27" in r.stderr and "budget_mss" in r.stderr,
       f"[tune] typo:\n{r.stderr}")
 
-# The one-knob sweep beside the search: measured, scored like it, covered or listed.
-r = run(["--trials", "4", "--out", out, "--one-knob"])
+# The one-knob sweep beside the search: measured, scored like it, covered or listed; two points
+# at once, the timed frames behind the GPU lock the tuner hands its processes.
+r = run(["--jobs", "0"])
+check(r.returncode != 0 and "--jobs 0: must be 1 to 256" in r.stderr, f"--jobs 0:\n{r.stderr}")
+r = run(["--trials", "4", "--out", out, "--one-knob", "--jobs", "2"])
 check(r.returncode == 0 and "one-knob sweep: the search covers" in r.stdout,
       f"--one-knob:\n{r.stdout}{r.stderr}")
+check(os.path.isfile(os.path.join(out, "gpu.lock")), "--jobs 2 made no gpu.lock")
 if os.path.isfile(os.path.join(out, "oneknob.csv")):
     with open(os.path.join(out, "oneknob.csv")) as f:
         knobs = list(csv.DictReader(f))
