@@ -7,7 +7,7 @@ packages=(
   mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers vulkan-tools
   libglm-dev libglfw3-dev libgtest-dev libgmock-dev xvfb libstb-dev
   libtomlplusplus-dev libtinyobjloader-dev glmark2-data libimgui-dev libembree-dev libpng-dev
-  python3 python3-matplotlib python3-optuna lcov
+  python3 python3-matplotlib python3-optuna python3-distributed lcov
 )
 missing=()
 for p in "${packages[@]}"; do

@@ -29,11 +29,11 @@ def setargs(sets):
 
 
 def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
-            path_frames=8):
+            path_frames=8, env=None):
     """Returns a dict: the objectives (OBJECTIVES), still_error, per-light details, the
     device and the passes' ms. One penumbra-reference run: the still frame, the path, then
     `frames` frames timed with a renderer as penumbra-view builds it (0: none, and ms is
-    None)."""
+    None). `env`: the tool's environment (default this process's)."""
     os.makedirs(work, exist_ok=True)
     size_arg = ["--size", size] if size else []
     rout = os.path.join(work, "reference")
@@ -41,7 +41,7 @@ def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
          str(path_frames), "--flicker-truth", "--no-images"] +
         (["--timing-frames", str(frames)] if frames else []) +
         size_arg +
-        setargs(sets))
+        setargs(sets), env=env)
     with open(os.path.join(rout, "metrics.json")) as f:
         m = json.load(f)
     return score(m, m["timings"]["passes"] if frames else None, m["device"], path)
