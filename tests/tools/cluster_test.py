@@ -1,7 +1,8 @@
 #!/usr/bin/python3
 """penumbra-tune on a Dask cluster (issue 34), on lavapipe at a tiny size:
 
-1. the default run (no cluster) and --cluster local:2 open no port on a non-loopback address;
+1. the default run (no cluster) and --cluster local:2 open no port on a non-loopback address,
+   and a run killed with SIGKILL resumes to the serial run's results;
 2. a cluster of a scheduler and two workers started by tools/penumbra-cluster (each its own
    process, as two machines would be) measures the one-knob sweep with the same results as the
    serial run, row for row (GPU times aside), while one worker is killed after the first point:
@@ -166,6 +167,27 @@ want = sweep_rows(serial)
 check(len(want) == 3, f"serial sweep rows: {sorted(want)}")
 check(sweep_rows(local) == want, "--cluster local:2 measured the sweep otherwise than the serial "
       "run")
+
+# The tuner itself killed (SIGKILL) after its first point, then run again: it resumes and ends
+# with the serial run's results, none measured twice.
+killed_out = os.path.join(work, "killed")
+p = subprocess.Popen(base + ["--out", killed_out], stdout=subprocess.DEVNULL,
+                     stderr=subprocess.DEVNULL, env=env)
+killed_log = os.path.join(killed_out, "oneknob.jsonl")
+while p.poll() is None:
+    if os.path.exists(killed_log) and os.path.getsize(killed_log) > 0:
+        p.kill()
+        break
+    time.sleep(0.05)
+p.wait()
+with open(killed_log) as f:
+    first = len(f.read().splitlines())
+r = subprocess.run(base + ["--out", killed_out], capture_output=True, text=True, env=env)
+check(r.returncode == 0, f"the run after a SIGKILL:\n{r.stdout}{r.stderr}")
+check(sweep_rows(killed_out) == want, "a killed and resumed run measured the sweep otherwise than "
+      "the serial run")
+if first >= 3:  # a machine so busy that the whole sweep ran between two looks: nothing resumed
+    print(f"note: the tuner was killed after all {first} sweep points")
 
 # 2. A scheduler and two workers of their own, one killed mid-run.
 sched_file = os.path.join(work, "scheduler.json")
