@@ -17,6 +17,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
 #include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/gpu_lock.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -502,14 +503,18 @@ int run(int argc, char** argv) {
   if (out_ec)
     throw Error("cannot create the output directory " + out.string() + ": " + out_ec.message());
 
-  // Frames for timing, in the scene's own view.
+  // Frames for timing, in the scene's own view: alone on the GPU when other processes share it
+  // (PENUMBRA_GPU_LOCK, as penumbra-tune --jobs and a cluster worker's slots set it).
   std::map<std::string, std::vector<double>> samples;
   std::vector<std::string> order;
-  for (uint32_t f = 0; f < frames; ++f) {
-    renderer.render(f);
-    for (const auto& t : renderer.timings()) {
-      if (!samples.count(t.name)) order.push_back(t.name);
-      samples[t.name].push_back(t.gpu_ms);
+  {
+    const penumbra::gpu::ExclusiveGpu alone;
+    for (uint32_t f = 0; f < frames; ++f) {
+      renderer.render(f);
+      for (const auto& t : renderer.timings()) {
+        if (!samples.count(t.name)) order.push_back(t.name);
+        samples[t.name].push_back(t.gpu_ms);
+      }
     }
   }
   std::vector<std::string> written;

@@ -21,6 +21,7 @@ import time
 
 tools, build, work = sys.argv[1:4]
 tune, launcher = os.path.join(tools, "penumbra-tune"), os.path.join(tools, "penumbra-cluster")
+bench = os.path.join(tools, "penumbra-bench")
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
 failures = []
@@ -189,6 +190,29 @@ check(sweep_rows(killed_out) == want, "a killed and resumed run measured the swe
 if first >= 3:  # a machine so busy that the whole sweep ran between two looks: nothing resumed
     print(f"note: the tuner was killed after all {first} sweep points")
 
+# penumbra-bench's quick list on the same scene, serially (the cluster's run is below).
+bench_base = [sys.executable, bench, "--quick", "--scene", scene, "--size", "96x54", "--frames",
+              "2", "--build", build]
+# What depends on the machine and its load: GPU times and the roofline from them.
+TIMED = ("shadow_ms", "frame_ms", "resolve_ms", "resolve_floor_ms", "resolve_over_floor", "passes")
+
+
+def bench_rows(out):
+    try:
+        with open(os.path.join(out, "bench.json")) as f:
+            rows = json.load(f)["rows"]
+    except (OSError, ValueError, KeyError):
+        check(False, f"{out}: no bench.json")
+        return []
+    return [{k: v for k, v in r.items() if k not in TIMED} for r in rows]
+
+
+r = subprocess.run(bench_base + ["--out", os.path.join(work, "bench-serial")], capture_output=True,
+                   text=True, env=env)
+check(r.returncode == 0, f"serial bench:\n{r.stdout}{r.stderr}")
+want_bench = bench_rows(os.path.join(work, "bench-serial"))
+check(len(want_bench) == 4, f"{len(want_bench)} serial bench rows (4 configurations expected)")
+
 # 2. A scheduler and two workers of their own, one killed mid-run.
 sched_file = os.path.join(work, "scheduler.json")
 procs = []
@@ -241,6 +265,13 @@ try:
     check(killed, "the run ended before a worker could be killed")
     check(sweep_rows(two) == want, "the cluster with a killed worker measured the sweep otherwise "
           "than the serial run")
+
+    # The bench on the same cluster (one worker left): the serial rows.
+    r = subprocess.run(bench_base + ["--out", os.path.join(work, "bench-cluster"), "--cluster",
+                                     sched_file], capture_output=True, text=True, env=env)
+    check(r.returncode == 0 and "measuring on" in r.stdout, f"bench on a cluster:\n{r.stdout}{r.stderr}")
+    check(bench_rows(os.path.join(work, "bench-cluster")) == want_bench,
+          "the bench on a cluster measured otherwise than the serial bench")
 
     # 3. A worker at another commit: its points are refused (the only worker left offering the
     # class is this one once the good one is stopped).

@@ -27,7 +27,7 @@ import tempfile
 import threading
 
 from . import build, scenefile
-from .measure import measure
+from .measure import measure, measure_bench
 
 RESOURCE = "penumbra-{}"  # a worker's slots of a device class: penumbra-gpu, penumbra-lavapipe
 
@@ -48,29 +48,62 @@ def scene_path(ref):
     return ref if os.path.isabs(ref) else os.path.join(build.ROOT, ref)
 
 
-def config_hash(scene_hash, sets, size, frames, path, path_frames, commit):
-    key = json.dumps([scene_hash, sorted(sets.items()), size, frames, path, path_frames, commit])
+# What a point's identity leaves out: where the scene is and its text (its hash stands for them),
+# the commit (passed apart) and the hash itself.
+_NOT_INPUTS = ("config_hash", "scene", "scene_text", "scene_hash", "commit", "root")
+# What the truth leaves out besides: the shadow settings and the timed frames.
+_NOT_TRUTH = _NOT_INPUTS + ("sets", "frames")
+
+
+def config_hash(spec, scene_hash, commit):
+    """The configuration a point is measured for: the scene's content, the commit and the
+    point's inputs (settings, size, frames, path or flicker arguments, kind)."""
+    inputs = {k: v for k, v in spec.items() if k not in _NOT_INPUTS}
+    key = json.dumps([scene_hash, commit, inputs], sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
 def truth_key(spec):
-    """The truth's identity: the scene, the size and the path (not the shadow settings)."""
-    key = json.dumps([spec["scene_hash"], spec["size"], spec["path"], spec["path_frames"]])
+    """The truth's identity: the scene and what the reference traces for it (size, path or
+    flicker arguments), not the shadow settings."""
+    truth = {k: v for k, v in spec.items() if k not in _NOT_TRUTH}
+    key = json.dumps([spec["scene_hash"], truth], sort_keys=True)
     return hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
+def text_hash(text):
+    return hashlib.sha256(text.encode()).hexdigest()[:12]
+
+
 def base_spec(scene, size, frames, path, path_frames):
-    """What every point of a run shares; point_spec adds a point's settings."""
+    """What every penumbra-tune point of a run shares; point_spec adds a point's settings."""
     return {"scene": scene_ref(scene), "scene_hash": scenefile.content_hash(scene), "size": size,
             "frames": frames, "path": path, "path_frames": path_frames,
             "commit": build.git_commit()}
 
 
+def bench_spec(scene, size, frames, flicker, written=False):
+    """What a penumbra-bench point shares with the others of its scene. A scene file the bench
+    wrote (`written`: a moved copy, scaled maps) travels as its text, the checkout's folder in it
+    (mask textures) made the worker's own; any other is found as penumbra-tune's are (in the
+    worker's checkout, or at the same absolute path)."""
+    spec = {"kind": "bench", "size": size, "frames": frames, "flicker": list(flicker),
+            "commit": build.git_commit()}
+    if written:
+        with open(scene) as f:
+            text = f.read()
+        spec.update(scene=os.path.basename(scene), scene_text=text, scene_hash=text_hash(text),
+                    root=build.ROOT)
+    else:
+        spec.update(scene=scene_ref(scene), scene_hash=scenefile.content_hash(scene))
+    return spec
+
+
 def point_spec(base, sets):
     """A point as the client asks for it, with the configuration hash it expects back."""
-    return dict(base, sets=dict(sets),
-                config_hash=config_hash(base["scene_hash"], sets, base["size"], base["frames"],
-                                        base["path"], base["path_frames"], base["commit"]))
+    spec = dict(base, sets=sets if isinstance(sets, list) else dict(sets))
+    spec["config_hash"] = config_hash(spec, base["scene_hash"], base["commit"])
+    return spec
 
 
 def _cache_root():
@@ -86,13 +119,37 @@ def _truth_dir(spec):
     return os.path.join(_cache_root(), "shared", truth_key(spec))
 
 
+def _scene(spec, work):
+    """The scene file on this machine, and its hash as the client computes it."""
+    if spec.get("scene_text") is None:
+        scene = scene_path(spec["scene"])
+        return scene, scenefile.content_hash(scene)
+    text = spec["scene_text"]
+    scene = os.path.join(work, os.path.basename(spec["scene"]))
+    with open(scene, "w") as f:
+        f.write(text.replace(spec["root"], build.ROOT))
+    return scene, text_hash(text)
+
+
+def _measure(spec, scene, work, env, truth_only=False):
+    tools = build.Tools()
+    if spec.get("kind") == "bench":
+        size = ["--size", spec["size"]] if spec["size"] else []
+        if truth_only:
+            return build.run([tools.reference, "--scene", scene, "--out",
+                              os.path.join(work, "reference")] + size + spec["flicker"], env=env)
+        passes, device, metrics = measure_bench(tools, scene, spec["sets"], work, spec["size"],
+                                                spec["frames"], spec["flicker"], env=env)
+        return {"passes": passes, "device": device, "metrics": metrics}
+    return measure(tools, scene, {} if truth_only else spec["sets"], work,
+                   size=spec["size"] or None, frames=0 if truth_only else spec["frames"],
+                   path=spec["path"], path_frames=spec["path_frames"], env=env)
+
+
 def run_point(spec, truth=None):
-    """Measures one point (on a worker, or here): the measure's result with the configuration
-    hash this machine computes for it, the worker's host name and, when `truth` (file name ->
-    bytes) is given, with those cache files installed first."""
-    scene = scene_path(spec["scene"])
-    mine = config_hash(scenefile.content_hash(scene), spec["sets"], spec["size"],
-                       spec["frames"], spec["path"], spec["path_frames"], build.git_commit())
+    """Measures one point (on a worker, or here): the result with the configuration hash this
+    machine computes for it and the worker's host name; when `truth` (file name -> bytes) is
+    given, those reference-cache files are installed first."""
     env = None
     if truth is not None:
         d = _truth_dir(spec)
@@ -105,10 +162,9 @@ def run_point(spec, truth=None):
                 os.replace(f.name, target)
         env = dict(os.environ, PENUMBRA_REFERENCE_CACHE=d)
     with tempfile.TemporaryDirectory() as work:
-        r = measure(build.Tools(), scene, spec["sets"], work, size=spec["size"] or None,
-                    frames=spec["frames"], path=spec["path"], path_frames=spec["path_frames"],
-                    env=env)
-    r["config_hash"] = mine
+        scene, scene_hash = _scene(spec, work)
+        r = _measure(spec, scene, work, env)
+    r["config_hash"] = config_hash(spec, scene_hash, build.git_commit())
     r["worker"] = socket.gethostname()
     return r
 
@@ -119,9 +175,8 @@ def trace_truth(spec):
     d = _truth_dir(spec)
     os.makedirs(d, exist_ok=True)
     with tempfile.TemporaryDirectory() as work:
-        measure(build.Tools(), scene_path(spec["scene"]), {}, work, size=spec["size"] or None,
-                frames=0, path=spec["path"], path_frames=spec["path_frames"],
-                env=dict(os.environ, PENUMBRA_REFERENCE_CACHE=d))
+        scene, _ = _scene(spec, work)
+        _measure(spec, scene, work, dict(os.environ, PENUMBRA_REFERENCE_CACHE=d), truth_only=True)
     files = {}
     for name in sorted(os.listdir(d)):
         if name.endswith(".pnref"):

@@ -3,6 +3,7 @@ timestamp queries, the median over frames, as penumbra-view renders them) and th
 the ray-traced truth:
 the still frame, and along a camera path with the temporal history running (the error along the
 path, the flicker the truth does not have), acne, leaks and the contact gap per light."""
+import csv
 import json
 import math
 import os
@@ -88,3 +89,24 @@ def score(m, passes, device, path):
                                  "contact_gap_world", "false_light", "false_shadow")}
                    for l in lights},
     }
+
+
+def measure_bench(tools, scene, sets, work, size="", frames=10, flicker=(), env=None):
+    """penumbra-bench's point: the GPU time per pass from penumbra-view --headless (the median of
+    `frames` frames after one more), then penumbra-reference's metrics.json (with `flicker`, its
+    --flicker arguments). `sets` is a list of (key, value). Returns (passes, device, metrics)."""
+    setargs = [x for k, v in sets for x in ("--set", f"{k}={v}")]
+    size_arg = ["--size", size] if size else []
+    vout = os.path.join(work, "view")
+    run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view", "lit",
+         "--out", vout] + size_arg + setargs, env=env)
+    passes, device = {}, ""
+    with open(os.path.join(vout, "timings.csv")) as f:
+        for row in csv.DictReader(f):
+            passes[row["pass"]] = float(row["median_ms"])
+            device = row["device"]
+    rout = os.path.join(work, "reference")
+    run([tools.reference, "--scene", scene, "--out", rout] + size_arg + setargs + list(flicker),
+        env=env)
+    with open(os.path.join(rout, "metrics.json")) as f:
+        return passes, device, json.load(f)
