@@ -7,7 +7,8 @@
    process, as two machines would be) measures the one-knob sweep with the same results as the
    serial run, row for row (GPU times aside), while one worker is killed after the first point:
    no finished point is lost and none is recorded twice;
-3. a worker at another commit has its points refused, not mixed in;
+3. penumbra-bench's quick list on that cluster gives the serial bench's rows, and a worker at
+   another commit has its points refused, not mixed in;
 4. penumbra-cluster refuses a public address.
 
 usage: cluster_test.py TOOLS_DIR BUILD_DIR WORK_DIR"""
@@ -33,31 +34,10 @@ def check(ok, what):
         print(f"FAIL: {what}", file=sys.stderr)
 
 
-SCENE = """# A box on a plane under a sun.
-name = "tiny"
-
-[camera]
-position = [0, 2, 4]
-target = [0, 0.3, 0]
-
-[sun]
-direction = [-0.4, -0.8, -0.3]
-angular_diameter = 0.53
-
-[shadows]
-filter = "pcf"
-pcf_radius = 1
-cascades = 2
-resolution = 512
-
-[[object]]
-mesh = "plane"
-scale = [8, 1, 8]
-
-[[object]]
-mesh = "box"
-position = [0, 0.5, 0]
-"""
+# A box on a plane under a sun (shared with tune_smoke.py).
+with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "scene",
+                       "tiny-sun.toml")) as f:
+    SCENE = f.read()
 scene = os.path.join(work, "tiny.toml")
 with open(scene, "w") as f:
     f.write(SCENE)

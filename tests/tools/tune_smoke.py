@@ -27,31 +27,10 @@ def check(ok, what):
         failures.append(what)
 
 
-SCENE = """# A box on a plane under a sun: the smallest scene with a shadow to tune.
-name = "tiny"
-
-[camera]
-position = [0, 2, 4]
-target = [0, 0.3, 0]
-
-[sun]
-direction = [-0.4, -0.8, -0.3]
-angular_diameter = 0.53
-
-[shadows]
-filter = "pcf"  # the scene's own choice
-pcf_radius = 1
-cascades = 2
-resolution = 512
-
-[[object]]
-mesh = "plane"
-scale = [8, 1, 8]
-
-[[object]]
-mesh = "box"
-position = [0, 0.5, 0]
-"""
+# A box on a plane under a sun (shared with cluster_test.py).
+with open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "data", "scene",
+                       "tiny-sun.toml")) as f:
+    SCENE = f.read()
 scene = os.path.join(work, "tiny.toml")
 with open(scene, "w") as f:
     f.write(SCENE)
