@@ -63,6 +63,20 @@ if cmake --install "$PENUMBRA_BUILD" --prefix "$example/prefix" > "$example/inst
     echo "the example's test binary fails when run outside CTest" >&2
     status=1
   fi
+  # The installed viewer from a moved prefix (issue 36): it finds its scenes and shaders beside
+  # its bin/, and compiles a user's own copy of the shader tree given with --shader-dir.
+  mv "$example/prefix" "$example/moved"
+  cp -r "$example/moved/share/penumbra/shaders" "$example/my-shaders"
+  if ! (cd / && env -u PENUMBRA_SHADER_DIR -u PENUMBRA_SHADER_PATH PENUMBRA_VALIDATION=1 \
+          ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} "$example/moved/bin/penumbra-view" \
+          --headless --scene default --frames 1 --size 96x54 --view lit \
+          --shader-dir "$example/my-shaders" --out "$example/view" > "$example/view.log" 2>&1) ||
+     ! grep -q "$example/moved/share/penumbra/scenes/default.toml" "$example/view.log" ||
+     [[ ! -s "$example/view/lit.png" ]]; then
+    cat "$example/view.log"
+    echo "the installed penumbra-view did not render from a moved prefix" >&2
+    status=1
+  fi
 else
   cat "$example"/*.log
   echo "the example project did not build against the installed package" >&2

@@ -1,7 +1,8 @@
 # install() and export: the test harness and the layers it stands on, the GLSL library, and the
 # CMake package (find_package(Penumbra CONFIG), penumbra_add_shader_tests), and
-# bin/penumbra-coverage (the GLSL coverage report of the harness's tracefiles). The renderer,
-# the scene layer and the other tools are not part of the package.
+# bin/penumbra-coverage (the GLSL coverage report of the harness's tracefiles); and, at the end
+# (penumbra_install_tools), bin/penumbra-view and bin/penumbra-reference with the renderer's
+# shaders and the shipped scenes. The renderer and scene libraries are not exported.
 include(CMakePackageConfigHelpers)
 set(PENUMBRA_INSTALL_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/Penumbra")
 set(PENUMBRA_INSTALL_SHADER_DIR "${CMAKE_INSTALL_DATADIR}/penumbra/shaders")
@@ -31,3 +32,20 @@ install(FILES "${PROJECT_BINARY_DIR}/PenumbraConfig.cmake"
               "${PROJECT_SOURCE_DIR}/cmake/PenumbraTesting.cmake"
               "${PROJECT_SOURCE_DIR}/cmake/PenumbraDiscoverSuites.cmake"
         DESTINATION "${PENUMBRA_INSTALL_CMAKE_DIR}")
+
+# The viewer and the reference as installed tools (issue 36), with the renderer's shaders and the
+# shipped scenes: an installed tool finds share/penumbra beside its bin/ from its own path
+# (installed_share_dir in penumbra/core/file.hpp), so a moved prefix works. Called from the top
+# level after runtime/ and tools/ define the targets.
+function(penumbra_install_tools)
+  foreach(tool penumbra-view penumbra-reference)
+    if(TARGET ${tool})
+      install(TARGETS ${tool} RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}")
+    endif()
+  endforeach()
+  # Every shader the renderer compiles (shaders/render, the passes' .comp files at the top, the
+  # library again): the tools read them from here.
+  install(DIRECTORY "${PROJECT_SOURCE_DIR}/shaders/" DESTINATION "${PENUMBRA_INSTALL_SHADER_DIR}")
+  install(DIRECTORY "${PROJECT_SOURCE_DIR}/scenes/"
+          DESTINATION "${CMAKE_INSTALL_DATADIR}/penumbra/scenes")
+endfunction()

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/file.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <system_error>
@@ -27,8 +28,11 @@ Bounds instance_bounds(const Scene& scene, bool casters_only) {
 }
 
 std::vector<fs::path> scene_dirs() {
-  std::vector<fs::path> dirs{fs::path(PENUMBRA_SCENE_DIR)};
-  if (fs::path("scenes") != dirs.front()) dirs.emplace_back("scenes");
+  // An installed tool's scenes first (share/penumbra/scenes beside it), then the source tree's.
+  std::vector<fs::path> dirs;
+  if (const auto share = installed_share_dir(); !share.empty()) dirs.push_back(share / "scenes");
+  dirs.emplace_back(PENUMBRA_SCENE_DIR);
+  if (fs::path("scenes") != fs::path(PENUMBRA_SCENE_DIR)) dirs.emplace_back("scenes");
   return dirs;
 }
 

@@ -3,6 +3,7 @@
 // share/penumbra/shaders for the installed package (penumbra_shader_paths_installed), so that an
 // installed Penumbra never reads the tree it was built from.
 #include <cstdlib>
+#include <penumbra/core/file.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <string>
 
@@ -29,6 +30,8 @@ std::filesystem::path default_shader_dir() {
     return dir;
   // The installed package's copy, where the consumer's find_package found it.
   if (!package_dir().empty()) return package_dir();
+  // An installed tool (penumbra-view, penumbra-reference): the shaders installed beside it.
+  if (const auto share = installed_share_dir(); !share.empty()) return share / "shaders";
   return PENUMBRA_SHADER_DIR;
 }
 

@@ -91,4 +91,17 @@ inline void write_file_atomic(const std::filesystem::path& path, std::string_vie
   }
 }
 
+// The share/penumbra folder of an installed Penumbra when this executable runs from one
+// (<prefix>/bin/<tool> with <prefix>/share/penumbra/shaders/render installed beside it), found
+// from the executable's own path, so a moved prefix works; empty elsewhere (a build tree, a
+// project's own binaries).
+inline std::filesystem::path installed_share_dir() {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) return {};
+  const fs::path share = exe.parent_path().parent_path() / "share" / "penumbra";
+  return fs::is_directory(share / "shaders" / "render", ec) ? share : fs::path();
+}
+
 }  // namespace penumbra
