@@ -14,6 +14,7 @@
 #include <iostream>
 #include <map>
 #include <memory>
+#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
 #include <penumbra/gpu/context.hpp>
@@ -27,6 +28,7 @@
 
 #include "script.hpp"
 #include "session.hpp"
+#include "truth.hpp"
 #include "window.hpp"
 #ifdef PENUMBRA_HAS_IMGUI
 #include "ui.hpp"
@@ -36,6 +38,10 @@
 #include <GLFW/glfw3.h>
 
 namespace {
+
+// Frames timed for each --truth snapshot (the median and its spread): 4 keeps a snapshot within
+// a second of the new frame on lavapipe at 640x360 (a frame there is about 150 ms).
+constexpr std::uint32_t kTruthFrames = 4;
 
 namespace fs = std::filesystem;
 using penumbra::Error;
@@ -52,6 +58,7 @@ struct Options {
   bool list_params = false;
   fs::path shader_dir;  // empty: the repo's shaders/
   bool watch = false;
+  bool truth = false;  // --truth: deltas against the ray-traced truth after every reload
   bool exit_after_frames = false;  // window: close after --frames presented frames
   bool ui = true;                  // window: the Dear ImGui parameter panel
   uint32_t debounce_ms = uint32_t(penumbra::runtime::kDefaultDebounce.count());
@@ -116,7 +123,7 @@ void usage() {
       "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
       "                     [--list-params]\n"
-      "                     [--shader-dir DIR] [--watch] [--debounce-ms N]\n"
+      "                     [--shader-dir DIR] [--watch] [--truth] [--debounce-ms N]\n"
       "                     [--exit-after-frames] [--no-ui]\n"
       "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
       "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
@@ -137,6 +144,9 @@ void usage() {
       "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
+      "  --truth       with --watch (headless): after every reload, the GPU ms and the error\n"
+      "                against the ray-traced truth (per light: mean |dV|, false light and\n"
+      "                shadow, acne, contact gap) before -> after; the truth is traced once\n"
       "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
       "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
       "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
@@ -197,6 +207,8 @@ Options parse(int argc, char** argv) {
       }
     } else if (a == "--watch")
       o.watch = true;
+    else if (a == "--truth")
+      o.truth = true;
     else if (a == "--exit-after-frames")
       o.exit_after_frames = true;
     else if (a == "--no-ui")
@@ -230,6 +242,9 @@ Options parse(int argc, char** argv) {
     throw Error(
         "--set does not combine with --script or --command (use the command 'set KEY "
         "VALUE' there)");
+  if (o.truth && (!o.watch || !o.scripts.empty()))
+    throw Error("--truth reports what each reload did: it needs --watch (and no --script)");
+  if (o.truth) o.headless = true;  // the window's table of deltas is not built yet
   return o;
 }
 
@@ -259,6 +274,7 @@ penumbra::runtime::SessionOptions session_options(const Options& o, bool watch) 
   so.width = o.width;
   so.height = o.height;
   so.watch = watch;
+  so.visibility_output = o.truth;
   so.debounce = std::chrono::milliseconds(o.debounce_ms);
   return so;
 }
@@ -567,12 +583,49 @@ int run(int argc, char** argv) {
                 session.shader_dir().string().c_str(), session.watcher()->directories().size());
     std::fflush(stdout);
     const fs::path png = out / (first_view + ".png");
+    // --truth: the baseline now (the truth traced once, then read from the reference cache),
+    // and after every reload that rebuilt something, what it did to GPU time and error.
+    penumbra::reference::MeasureOptions truth_options;
+    truth_options.failure_modes = true;
+    truth_options.cache_dir = penumbra::reference::default_cache_dir();
+    std::optional<penumbra::runtime::TruthSnapshot> before, start;
+    const auto print_lines = [](const std::vector<std::string>& lines) {
+      for (const auto& l : lines) std::printf("%s\n", l.c_str());
+      std::fflush(stdout);
+    };
+    if (o.truth) {
+      std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
+                  truth_options.cache_dir->string().c_str());
+      std::fflush(stdout);
+      before = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options);
+      if (before->lights.empty()) {
+        std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
+                    scene.name.c_str());
+        before.reset();
+      } else {
+        print_lines(penumbra::runtime::truth_lines(*before));
+        start = before;
+      }
+      renderer.set_debug_view(view_of(first_view));
+    }
     while (!g_stop) {
       const auto rec = session.wait_reload(std::chrono::milliseconds(200));
       if (!rec || rec->result.rebuilt.empty()) continue;
       penumbra::render::write_png(png, renderer.width(), renderer.height(), session.pixels());
       std::printf("[watch] wrote %s\n", png.string().c_str());
       std::fflush(stdout);
+      if (before) {
+        const auto t = std::chrono::steady_clock::now();
+        auto after = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options);
+        print_lines(penumbra::runtime::truth_lines(*before, after));
+        print_lines(penumbra::runtime::truth_since(*start, after));
+        std::printf("[truth] measured in %.0f ms after the new frame\n",
+                    std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                              t)
+                        .count());
+        std::fflush(stdout);
+        before = std::move(after);
+      }
     }
     print_latency_summary(session);
   }

@@ -70,6 +70,7 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
   }
   render::RendererOptions ro;
   ro.shader_dir = shader_dir_;
+  ro.visibility_output = options_.visibility_output;
   ro.width = width_;
   ro.height = height_;
   renderer_ = std::make_unique<render::Renderer>(ctx_, scene, ro);
@@ -111,6 +112,7 @@ std::string Session::relative(const fs::path& file) const {
 void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height) {
   render::RendererOptions ro;
   ro.shader_dir = shader_dir_;
+  ro.visibility_output = options_.visibility_output;
   ro.width = width;
   ro.height = height;
   std::unique_ptr<render::Renderer> fresh;

@@ -40,6 +40,7 @@ struct SessionOptions {
   std::filesystem::path shader_dir;     // empty: the repo's shaders/ (compiled in)
   std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
   bool watch = true;                    // false: no watcher (reload only through reload())
+  bool visibility_output = false;       // the renderer writes each light's visibility (--truth)
   std::chrono::milliseconds debounce = kDefaultDebounce;
   // Every line the session prints ("[reload] ..."); default: stdout, flushed.
   std::function<void(const std::string&)> log;

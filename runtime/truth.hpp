@@ -1,0 +1,44 @@
+#pragma once
+// Deltas on save (penumbra-view --truth): what an edit did to the frame's GPU time and to its
+// error against the ray-traced truth. A snapshot times the frame (the median of a few frames
+// and their spread, so noise is not read as a change) and measures a fresh frame (history
+// reset, the same frame index) against the reference, whose truth is traced once and then
+// read from the reference cache (it depends on the receivers, not on the shaders).
+#include <cstdint>
+#include <map>
+#include <penumbra/reference/frame.hpp>
+#include <string>
+#include <vector>
+
+#include "session.hpp"
+
+namespace penumbra::runtime {
+
+struct TruthLight {
+  std::string name;
+  double mean_abs = 0.0, false_light = 0.0, false_shadow = 0.0, acne = 0.0;
+  double gap_texels = 0.0;  // NaN when the truth shows no contact
+};
+
+struct TruthSnapshot {
+  double frame_ms = 0.0;   // median GPU ms per frame, every pass
+  double spread_ms = 0.0;  // half the interquartile range of the frames' GPU ms
+  std::map<std::string, double> pass_ms;
+  std::vector<TruthLight> lights;
+  std::vector<std::uint8_t> pixels;  // the measured frame, RGBA8
+};
+
+// The session's renderer must have been built with SessionOptions::visibility_output.
+TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
+                            const reference::MeasureOptions& options);
+
+// "[truth] ..." lines: the baseline, and before -> after per pass and per light. A GPU-time
+// change within the spreads of both is reported as noise, an image that did not change as
+// "bit-identical".
+std::vector<std::string> truth_lines(const TruthSnapshot& now);
+std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSnapshot& after);
+// One line: GPU time, each light's mean |dV| and the image against the first snapshot (an edit
+// undone reads +0 and bit-identical).
+std::vector<std::string> truth_since(const TruthSnapshot& start, const TruthSnapshot& now);
+
+}  // namespace penumbra::runtime
