@@ -33,8 +33,7 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
                             const reference::MeasureOptions& options);
 
 // "[truth] ..." lines: the baseline, and before -> after per pass and per light. A GPU-time
-// change within the spreads of both is reported as noise, an image that did not change as
-// "bit-identical".
+// change within the spreads of both, or under 3% of the frame, is reported as noise.
 std::vector<std::string> truth_lines(const TruthSnapshot& now);
 std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSnapshot& after);
 // One line: GPU time, each light's mean |dV| and the image against the first snapshot (an edit
