@@ -59,6 +59,7 @@ struct Options {
   fs::path shader_dir;  // empty: the repo's shaders/
   bool watch = false;
   bool truth = false;  // --truth: deltas against the ray-traced truth after every reload
+  std::string truth_flicker;  // --truth-flicker PATH: and the flicker along that camera path
   bool exit_after_frames = false;  // window: close after --frames presented frames
   bool ui = true;                  // window: the Dear ImGui parameter panel
   uint32_t debounce_ms = uint32_t(penumbra::runtime::kDefaultDebounce.count());
@@ -147,6 +148,8 @@ void usage() {
       "  --truth       with --watch (headless): after every reload, the GPU ms and the error\n"
       "                against the ray-traced truth (per light: mean |dV|, false light and\n"
       "                shadow, acne, contact gap) before -> after; the truth is traced once\n"
+      "  --truth-flicker PATH  --truth, and the flicker and error along a camera path\n"
+      "                (translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg)\n"
       "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
       "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
       "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
@@ -209,6 +212,11 @@ Options parse(int argc, char** argv) {
       o.watch = true;
     else if (a == "--truth")
       o.truth = true;
+    else if (a == "--truth-flicker") {
+      o.truth_flicker = value();
+      penumbra::reference::find_path(o.truth_flicker);  // an unknown path names the known ones
+      o.truth = true;
+    }
     else if (a == "--exit-after-frames")
       o.exit_after_frames = true;
     else if (a == "--no-ui")
@@ -589,6 +597,7 @@ int run(int argc, char** argv) {
     truth_options.failure_modes = true;
     truth_options.cache_dir = penumbra::reference::default_cache_dir();
     std::optional<penumbra::runtime::TruthSnapshot> before, start;
+    std::optional<penumbra::reference::CameraPath> flicker_path;
     const auto print_lines = [](const std::vector<std::string>& lines) {
       for (const auto& l : lines) std::printf("%s\n", l.c_str());
       std::fflush(stdout);
@@ -597,7 +606,9 @@ int run(int argc, char** argv) {
       std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
                   truth_options.cache_dir->string().c_str());
       std::fflush(stdout);
-      before = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options);
+      if (!o.truth_flicker.empty()) flicker_path = penumbra::reference::find_path(o.truth_flicker);
+      before = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options,
+                                                flicker_path);
       if (before->lights.empty()) {
         std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
                     scene.name.c_str());
@@ -616,7 +627,8 @@ int run(int argc, char** argv) {
       std::fflush(stdout);
       if (before) {
         const auto t = std::chrono::steady_clock::now();
-        auto after = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options);
+        auto after = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options,
+                                                      flicker_path);
         print_lines(penumbra::runtime::truth_lines(*before, after));
         print_lines(penumbra::runtime::truth_since(*start, after));
         std::printf("[truth] measured in %.0f ms after the new frame\n",

@@ -15,6 +15,21 @@ std::string format(const char* fmt, double a, double b = 0.0, double c = 0.0) {
   return buf;
 }
 
+// Frames along a --truth-flicker path (penumbra-tune's path length).
+constexpr std::uint32_t kFlickerFrames = 8;
+
+std::string flicker_text(const TruthLight& l) {
+  return std::isfinite(l.flicker) ? format(", flicker %.2f%%, path error %.5f",
+                                           100.0 * l.flicker, l.path_error)
+                                  : std::string();
+}
+
+std::string flicker_delta(const TruthLight& b, const TruthLight& a) {
+  if (!std::isfinite(a.flicker) || !std::isfinite(b.flicker)) return "";
+  return format(", flicker %.2f -> %.2f%%", 100.0 * b.flicker, 100.0 * a.flicker) +
+         format(", path error %.5f -> %.5f", b.path_error, a.path_error);
+}
+
 std::string gap_text(double texels) {
   return std::isfinite(texels) ? format("%.2f", texels) : std::string("none");
 }
@@ -22,7 +37,8 @@ std::string gap_text(double texels) {
 }  // namespace
 
 TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
-                            const reference::MeasureOptions& options) {
+                            const reference::MeasureOptions& options,
+                            const std::optional<reference::CameraPath>& path) {
   render::Renderer& renderer = session.renderer();
   TruthSnapshot s;
   std::vector<double> totals;
@@ -55,6 +71,19 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
     t.gap_texels = l.has_failure_modes ? l.failure.contact_gap_texels : std::nan("");
     s.lights.push_back(t);
   }
+  if (path) {
+    reference::FlickerOptions fo;
+    fo.frames = kFlickerFrames;
+    fo.truth = options.trace;
+    fo.cache_dir = options.cache_dir;
+    for (const auto& f : reference::measure_flicker(renderer, *path, fo))
+      for (auto& t : s.lights)
+        if (t.name == f.light) {
+          t.flicker = f.excess_fraction();
+          t.path_error = f.path_mean_abs_error;
+        }
+    renderer.reset_history();
+  }
   return s;
 }
 
@@ -67,7 +96,7 @@ std::vector<std::string> truth_lines(const TruthSnapshot& now) {
                   format(": mean |dV| %.5f, false light %.3f%%, false shadow %.3f%%",
                          l.mean_abs, 100.0 * l.false_light, 100.0 * l.false_shadow) +
                   format(", acne %.3f%%, gap ", 100.0 * l.acne) + gap_text(l.gap_texels) +
-                  " texels");
+                  " texels" + flicker_text(l));
   return out;
 }
 
@@ -102,7 +131,7 @@ std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSna
                          100.0 * a.false_shadow) +
                   format(", acne %.3f -> %.3f%%", 100.0 * b->acne, 100.0 * a.acne) +
                   ", gap " + gap_text(b->gap_texels) + " -> " + gap_text(a.gap_texels) +
-                  " texels");
+                  " texels" + flicker_delta(*b, a));
   }
   out.push_back(after.pixels == before.pixels ? "[truth] image: bit-identical to before"
                                               : "[truth] image: changed");

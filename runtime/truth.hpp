@@ -4,9 +4,12 @@
 // and their spread, so noise is not read as a change) and measures a fresh frame (history
 // reset, the same frame index) against the reference, whose truth is traced once and then
 // read from the reference cache (it depends on the receivers, not on the shaders).
+#include <cmath>
 #include <cstdint>
+#include <optional>
 #include <map>
 #include <penumbra/reference/frame.hpp>
+#include <penumbra/reference/temporal.hpp>
 #include <string>
 #include <vector>
 
@@ -18,6 +21,9 @@ struct TruthLight {
   std::string name;
   double mean_abs = 0.0, false_light = 0.0, false_shadow = 0.0, acne = 0.0;
   double gap_texels = 0.0;  // NaN when the truth shows no contact
+  // With a flicker path (--truth-flicker): the flicker the truth does not have along it, and
+  // the error along it with the temporal history running; NaN without.
+  double flicker = std::nan(""), path_error = std::nan("");
 };
 
 struct TruthSnapshot {
@@ -29,8 +35,10 @@ struct TruthSnapshot {
 };
 
 // The session's renderer must have been built with SessionOptions::visibility_output.
+// With `path`, the flicker along it too (its truth traced once per frame, then cached).
 TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
-                            const reference::MeasureOptions& options);
+                            const reference::MeasureOptions& options,
+                            const std::optional<reference::CameraPath>& path = std::nullopt);
 
 // "[truth] ..." lines: the baseline, and before -> after per pass and per light. A GPU-time
 // change within the spreads of both, or under 3% of the frame, is reported as noise.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""penumbra-view --headless --watch --truth (issue 36): an edit of a copy of the shader tree that
+"""penumbra-view --headless --watch --truth-flicker translate-1cm (issue 36): an edit of a copy of the shader tree that
 widens the PCF kernel by one texel prints the sun's GPU-time and error deltas against the
 ray-traced truth (the error grows, the image changes), and undoing the edit prints zero error
 change since the start and an image bit-identical to it; a scene with no shadowed light says so.
@@ -28,7 +28,8 @@ if NARROW not in original:
 env = dict(os.environ, PENUMBRA_REFERENCE_CACHE=os.path.join(work, "cache"))
 log_path = os.path.join(work, "view.log")
 log = open(log_path, "w")
-p = subprocess.Popen([view, "--headless", "--watch", "--truth", "--scene", "default", "--set",
+p = subprocess.Popen([view, "--headless", "--watch", "--truth-flicker", "translate-1cm", "--scene",
+                      "default", "--set",
                       "shadows.filter=pcf", "--size", "160x90", "--view", "lit", "--shader-dir",
                       shaders, "--out", os.path.join(work, "out")],
                      stdout=log, stderr=subprocess.STDOUT, env=env, cwd=work)
@@ -62,8 +63,8 @@ def edit(content):
     os.replace(pcf + ".new", pcf)
 
 
-if not wait_for(r"^\[truth\] sun: mean \|dV\| [0-9.]+, "):
-    fail("no --truth baseline for the sun")
+if not wait_for(r"^\[truth\] sun: mean \|dV\| [0-9.]+, .*, flicker [0-9.]+%, path error "):
+    fail("no --truth baseline for the sun, with its flicker along translate-1cm")
 edit(original.replace(NARROW, WIDE))
 if not wait_for(r"^\[truth\] since the start", 1):
     fail("no deltas after the edit that widens the kernel")
@@ -73,6 +74,8 @@ if not m or not float(m.group(2)) > float(m.group(1)):
     fail("the wider kernel did not raise the sun's mean |dV| against the truth")
 if not re.search(r"^\[truth\] GPU [0-9.]+ -> [0-9.]+ ms per frame", out, re.M):
     fail("no GPU-time delta")
+if not re.search(r"^\[truth\] sun: .*, flicker [0-9.]+ -> [0-9.]+%, path error ", out, re.M):
+    fail("no flicker delta along the path")
 if "image changed since the start" not in out:
     fail("the wider kernel left the image as it was")
 edit(original)
@@ -94,4 +97,8 @@ r = subprocess.run([view, "--headless", "--truth", "--scene", "default"], captur
                    text=True, env=env, cwd=work)
 if r.returncode == 0 or "--truth" not in r.stderr or "--watch" not in r.stderr:
     sys.exit(f"--truth without --watch was not refused:\n{r.stdout}{r.stderr}")
+r = subprocess.run([view, "--headless", "--watch", "--truth-flicker", "sideways"],
+                   capture_output=True, text=True, env=env, cwd=work)
+if r.returncode == 0 or "no camera path 'sideways'" not in r.stderr:
+    sys.exit(f"an unknown --truth-flicker path was not refused by name:\n{r.stderr}")
 print("penumbra-view --truth: deltas after an edit, zero after undoing it")
