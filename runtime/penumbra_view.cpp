@@ -617,7 +617,6 @@ int run(int argc, char** argv) {
         print_lines(penumbra::runtime::truth_lines(*before));
         start = before;
       }
-      renderer.set_debug_view(view_of(first_view));
     }
     while (!g_stop) {
       const auto rec = session.wait_reload(std::chrono::milliseconds(200));

@@ -106,17 +106,12 @@ def point_spec(base, sets):
     return spec
 
 
-def _cache_root():
-    """The reference cache as penumbra-reference finds it (src/reference/cache.cpp)."""
-    for var, tail in (("PENUMBRA_REFERENCE_CACHE", ()), ("XDG_CACHE_HOME", ("penumbra", "reference")),
-                      ("HOME", (".cache", "penumbra", "reference"))):
-        if os.environ.get(var):
-            return os.path.join(os.environ[var], *tail)
-    return os.path.join(tempfile.gettempdir(), "penumbra-reference")
-
-
 def _truth_dir(spec):
-    return os.path.join(_cache_root(), "shared", truth_key(spec))
+    """A truth's own reference-cache folder on this machine: under PENUMBRA_REFERENCE_CACHE when
+    set, else in the temporary directory (it outlives a run, so the next one traces nothing)."""
+    root = os.environ.get("PENUMBRA_REFERENCE_CACHE") or os.path.join(
+        tempfile.gettempdir(), f"penumbra-truth-{os.getuid()}")
+    return os.path.join(root, "shared", truth_key(spec))
 
 
 def _scene(spec, work):
@@ -134,12 +129,9 @@ def _scene(spec, work):
 def _measure(spec, scene, work, env, truth_only=False):
     tools = build.Tools()
     if spec.get("kind") == "bench":
-        size = ["--size", spec["size"]] if spec["size"] else []
-        if truth_only:
-            return build.run([tools.reference, "--scene", scene, "--out",
-                              os.path.join(work, "reference")] + size + spec["flicker"], env=env)
-        passes, device, metrics = measure_bench(tools, scene, spec["sets"], work, spec["size"],
-                                                spec["frames"], spec["flicker"], env=env)
+        passes, device, metrics = measure_bench(tools, scene, [] if truth_only else spec["sets"],
+                                                work, spec["size"], spec["frames"],
+                                                spec["flicker"], env=env, timed=not truth_only)
         return {"passes": passes, "device": device, "metrics": metrics}
     return measure(tools, scene, {} if truth_only else spec["sets"], work,
                    size=spec["size"] or None, frames=0 if truth_only else spec["frames"],

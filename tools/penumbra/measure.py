@@ -91,20 +91,23 @@ def score(m, passes, device, path):
     }
 
 
-def measure_bench(tools, scene, sets, work, size="", frames=10, flicker=(), env=None):
+def measure_bench(tools, scene, sets, work, size="", frames=10, flicker=(), env=None,
+                  timed=True):
     """penumbra-bench's point: the GPU time per pass from penumbra-view --headless (the median of
-    `frames` frames after one more), then penumbra-reference's metrics.json (with `flicker`, its
-    --flicker arguments). `sets` is a list of (key, value). Returns (passes, device, metrics)."""
+    `frames` frames after one more; timed=False: none, passes {}), then penumbra-reference's
+    metrics.json (with `flicker`, its --flicker arguments). `sets` is a list of (key, value).
+    Returns (passes, device, metrics)."""
     setargs = [x for k, v in sets for x in ("--set", f"{k}={v}")]
     size_arg = ["--size", size] if size else []
-    vout = os.path.join(work, "view")
-    run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view", "lit",
-         "--out", vout] + size_arg + setargs, env=env)
     passes, device = {}, ""
-    with open(os.path.join(vout, "timings.csv")) as f:
-        for row in csv.DictReader(f):
-            passes[row["pass"]] = float(row["median_ms"])
-            device = row["device"]
+    if timed:
+        vout = os.path.join(work, "view")
+        run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view",
+             "lit", "--out", vout] + size_arg + setargs, env=env)
+        with open(os.path.join(vout, "timings.csv")) as f:
+            for row in csv.DictReader(f):
+                passes[row["pass"]] = float(row["median_ms"])
+                device = row["device"]
     rout = os.path.join(work, "reference")
     run([tools.reference, "--scene", scene, "--out", rout] + size_arg + setargs + list(flicker),
         env=env)
