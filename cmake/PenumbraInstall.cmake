@@ -1,8 +1,9 @@
 # install() and export: the test harness and the layers it stands on, the GLSL library, and the
 # CMake package (find_package(Penumbra CONFIG), penumbra_add_shader_tests), and
 # bin/penumbra-coverage (the GLSL coverage report of the harness's tracefiles); and, at the end
-# (penumbra_install_tools), bin/penumbra-view and bin/penumbra-reference with the renderer's
-# shaders and the shipped scenes. The renderer and scene libraries are not exported.
+# (penumbra_install_tools), bin/penumbra-view, bin/penumbra-reference, bin/penumbra-bench and
+# bin/penumbra-tune with the renderer's shaders, the shipped scenes and the tools' Python
+# package. The renderer and scene libraries are not exported.
 include(CMakePackageConfigHelpers)
 set(PENUMBRA_INSTALL_CMAKE_DIR "${CMAKE_INSTALL_LIBDIR}/cmake/Penumbra")
 set(PENUMBRA_INSTALL_SHADER_DIR "${CMAKE_INSTALL_DATADIR}/penumbra/shaders")
@@ -48,4 +49,22 @@ function(penumbra_install_tools)
   install(DIRECTORY "${PROJECT_SOURCE_DIR}/shaders/" DESTINATION "${PENUMBRA_INSTALL_SHADER_DIR}")
   install(DIRECTORY "${PROJECT_SOURCE_DIR}/scenes/"
           DESTINATION "${CMAKE_INSTALL_DATADIR}/penumbra/scenes")
+  # penumbra-bench, penumbra-tune (and what they run: penumbra-extremes, penumbra-texel-rate;
+  # penumbra-cluster for their --cluster) with their Python package in share/penumbra/python: a
+  # script finds the package, the tools beside it in bin/ and the scenes from its own real path.
+  if(TARGET penumbra-view AND TARGET penumbra-reference)
+    install(TARGETS penumbra-texel-rate RUNTIME DESTINATION "${CMAKE_INSTALL_BINDIR}")
+    foreach(script penumbra-bench penumbra-tune penumbra-extremes penumbra-cluster)
+      install(PROGRAMS "${PROJECT_SOURCE_DIR}/tools/${script}" DESTINATION "${CMAKE_INSTALL_BINDIR}")
+    endforeach()
+    install(DIRECTORY "${PROJECT_SOURCE_DIR}/tools/penumbra"
+            DESTINATION "${CMAKE_INSTALL_DATADIR}/penumbra/python" FILES_MATCHING PATTERN "*.py"
+            PATTERN "__pycache__" EXCLUDE)
+    # The commit their results name (git is not asked from a prefix): the tree's at install time.
+    install(CODE "
+      execute_process(COMMAND git -C \"${PROJECT_SOURCE_DIR}\" rev-parse --short=12 HEAD
+                      OUTPUT_VARIABLE commit OUTPUT_STRIP_TRAILING_WHITESPACE ERROR_QUIET)
+      file(WRITE \"\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_DATADIR}/penumbra/commit\"
+           \"\${commit}\\n\")")
+  endif()
 endfunction()

@@ -1,8 +1,31 @@
-"""Where the build's executables are: --build DIR, else $PENUMBRA_BUILD, else ROOT/build."""
+"""Where the build's executables are: --build DIR, else $PENUMBRA_BUILD, else ROOT/build; in an
+installed Penumbra (this package under <prefix>/share/penumbra/python), the prefix's bin/."""
 import os
 import subprocess
 
-ROOT = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+_HERE = os.path.dirname(os.path.abspath(__file__))
+_SHARE = os.path.dirname(os.path.dirname(_HERE))
+# Installed: the package sits in <prefix>/share/penumbra/python with the shaders and scenes beside
+# it (the scripts import it by their real path), so a moved prefix works.
+INSTALLED = (os.path.basename(os.path.dirname(_HERE)) == "python" and
+             os.path.isdir(os.path.join(_SHARE, "shaders", "render")))
+# The folder whose scenes/ holds the shipped scenes: the source tree, or share/penumbra.
+ROOT = _SHARE if INSTALLED else os.path.abspath(os.path.join(_HERE, "..", ".."))
+BIN = os.path.abspath(os.path.join(_SHARE, "..", "..", "bin")) if INSTALLED else None
+
+
+def default_build():
+    """--build's default: $PENUMBRA_BUILD, else the prefix's bin/ (installed), else ROOT/build."""
+    return os.environ.get("PENUMBRA_BUILD") or BIN or os.path.join(ROOT, "build")
+
+
+def tool(build, name):
+    """The executable `name` of `build`: a build tree (runtime/penumbra-view, tools/<name>) or a
+    folder holding it (an installed prefix's bin/)."""
+    flat = os.path.join(build, name)
+    if os.path.isfile(flat):
+        return flat
+    return os.path.join(build, "runtime" if name == "penumbra-view" else "tools", name)
 
 
 class ToolError(RuntimeError):
@@ -11,10 +34,9 @@ class ToolError(RuntimeError):
 
 class Tools:
     def __init__(self, build=None):
-        self.build = os.path.abspath(build or os.environ.get("PENUMBRA_BUILD") or
-                                     os.path.join(ROOT, "build"))
-        self.view = os.path.join(self.build, "runtime", "penumbra-view")
-        self.reference = os.path.join(self.build, "tools", "penumbra-reference")
+        self.build = os.path.abspath(build or default_build())
+        self.view = tool(self.build, "penumbra-view")
+        self.reference = tool(self.build, "penumbra-reference")
 
     def check(self):
         missing = [t for t in (self.view, self.reference) if not os.access(t, os.X_OK)]
@@ -32,12 +54,19 @@ def run(cmd, env=None):
     return r.stdout
 
 
-def git_commit():
-    """$PENUMBRA_COMMIT (a copy of the tree without .git, on another machine), else git's."""
+def git_commit(short="--short"):
+    """$PENUMBRA_COMMIT (a copy of the tree without .git, on another machine), else git's; an
+    installed Penumbra's is the one `cmake --install` recorded in share/penumbra/commit."""
     if os.environ.get("PENUMBRA_COMMIT"):
         return os.environ["PENUMBRA_COMMIT"]
+    if INSTALLED:
+        try:
+            with open(os.path.join(ROOT, "commit")) as f:
+                return f.read().strip() or "unknown"
+        except OSError:
+            return "unknown"
     try:
-        return subprocess.run(["git", "-C", ROOT, "rev-parse", "--short", "HEAD"],
+        return subprocess.run(["git", "-C", ROOT, "rev-parse", short, "HEAD"],
                               capture_output=True, text=True, check=True).stdout.strip()
     except (OSError, subprocess.CalledProcessError):
         return "unknown"
