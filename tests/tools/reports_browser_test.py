@@ -80,6 +80,8 @@ def watchdog():
                 os.kill(pid, signal.SIGKILL)
             except OSError:
                 pass
+        if "profile" in globals():  # the browser's profile folder
+            shutil.rmtree(profile, ignore_errors=True)
         if own_group:
             os.killpg(0, signal.SIGKILL)
     finally:
