@@ -100,12 +100,13 @@ for line, want in EXPECTED.items():
         errors.append(f"synthetic.md:{line} should fail with '{want}', got: {got.get(line)}")
 if ran != len(EXPECTED):
     errors.append(f"{ran} synthetic blocks ran, {len(EXPECTED)} expected")
+where = docblocks.shown(synthetic, root)
 for entry in log:
-    if entry.startswith("FAIL") and not entry.startswith(f"FAIL {synthetic}:"):
+    if entry.startswith("FAIL") and not entry.startswith(f"FAIL {where}:"):
         errors.append(f"a failure that does not name the file:line: {entry[:200]}")
 if "  | before" not in got.get(31, "") or "  | after" in got.get(31, ""):
     errors.append(f"the failing block did not stop at the failure (set -e): {got.get(31)}")
-if f"[docs] {synthetic}:33: exit status 1" not in got.get(31, ""):
+if f"[docs] {where}:33: exit status 1" not in got.get(31, ""):
     errors.append(f"the failing command is not named at synthetic.md:33: {got.get(31)}")
 if os.path.exists(os.path.join(root, "shaders", "written-by-a-doc-block")):
     os.remove(os.path.join(root, "shaders", "written-by-a-doc-block"))

@@ -218,12 +218,17 @@ def block_env(work, build):
     return env
 
 
+def shown(path, root=ROOT):
+    """A Markdown file's name in messages: relative to the tree when it is inside it."""
+    rel = os.path.relpath(path, root)
+    return path if rel.startswith("..") else rel
+
+
 def run_file(path, root=ROOT, build=None, parent=None, keep=False, log=print):
     """Runs the marked blocks of one Markdown file; returns (blocks run, failures), a failure
     being (block, why)."""
     build = build or os.environ.get("PENUMBRA_BUILD") or os.path.join(root, "build")
-    rel = os.path.relpath(path, root)
-    where = path if rel.startswith("..") else rel
+    where = shown(path, root)
     with open(path, encoding="utf-8") as f:
         blocks = parse(f.read(), where)
     if not blocks:
