@@ -22,6 +22,7 @@
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
+#include <penumbra/shader/compiler.hpp>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -142,7 +143,8 @@ void usage() {
       "                --set shadows.pcf_radius=2 (docs/scenes.md lists the keys)\n"
       "  --list-params print the parameter table as JSON (key, type, range, choices, doc,\n"
       "                default) with the scene's values after --set, and exit\n"
-      "  --shader-dir  the shader tree to compile and watch (default: the repo's shaders/)\n"
+      "  --shader-dir  a shader tree to compile and watch over the library (the repo's or the\n"
+      "                installed shaders/): files in DIR win, the rest are read from the library\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
       "  --truth       with --watch (headless): after every reload, the GPU ms and the error\n"
@@ -279,6 +281,9 @@ void print_latency_summary(const penumbra::runtime::Session& s) {
 penumbra::runtime::SessionOptions session_options(const Options& o, bool watch) {
   penumbra::runtime::SessionOptions so;
   so.shader_dir = o.shader_dir;
+  // --shader-dir DIR is an overlay: what DIR lacks comes from the library this viewer was built
+  // or installed with.
+  if (!o.shader_dir.empty()) so.library_shader_dirs = {penumbra::shader::default_shader_dir()};
   so.width = o.width;
   so.height = o.height;
   so.watch = watch;
@@ -587,8 +592,11 @@ int run(int argc, char** argv) {
     renderer.set_debug_view(view_of(first_view));
     std::signal(SIGINT, on_signal);
     std::signal(SIGTERM, on_signal);
-    std::printf("\n[watch] watching %s (%zu directories); edit a shader, Ctrl-C stops\n",
-                session.shader_dir().string().c_str(), session.watcher()->directories().size());
+    std::string over;
+    for (const auto& lib : session.library_dirs()) over += " over " + lib.string();
+    std::printf("\n[watch] watching %s%s (%zu directories); edit a shader, Ctrl-C stops\n",
+                session.shader_dir().string().c_str(), over.c_str(),
+                session.watcher()->directories().size());
     std::fflush(stdout);
     const fs::path png = out / (first_view + ".png");
     // --truth: the baseline now (the truth traced once, then read from the reference cache),

@@ -54,6 +54,17 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
         const fs::path canonical = fs::weakly_canonical(fs::absolute(dir, ec), ec);
         return canonical.empty() ? dir : canonical;
       }()),
+      library_dirs_([&] {
+        std::vector<fs::path> dirs;
+        for (const fs::path& d : options_.library_shader_dirs) {
+          std::error_code ec;
+          fs::path c = fs::weakly_canonical(fs::absolute(d, ec), ec);
+          if (c.empty()) c = d;
+          if (c != shader_dir_ && std::find(dirs.begin(), dirs.end(), c) == dirs.end())
+            dirs.push_back(c);
+        }
+        return dirs;
+      }()),
       width_(options_.width),
       height_(options_.height) {
   if (!options_.log) {
@@ -66,10 +77,13 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
   if (options_.watch) {
     WatcherOptions wo;
     wo.debounce = options_.debounce;
-    watcher_ = std::make_unique<Watcher>(std::vector<fs::path>{shader_dir_}, wo);
+    std::vector<fs::path> dirs{shader_dir_};
+    dirs.insert(dirs.end(), library_dirs_.begin(), library_dirs_.end());
+    watcher_ = std::make_unique<Watcher>(dirs, wo);
   }
   render::RendererOptions ro;
   ro.shader_dir = shader_dir_;
+  ro.library_shader_dirs = library_dirs_;
   ro.visibility_output = options_.visibility_output;
   ro.width = width_;
   ro.height = height_;
@@ -80,8 +94,34 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
 Session::~Session() = default;
 
 bool Session::outside_tree(const fs::path& file) const {
+  return layer_of(file).empty();
+}
+
+fs::path Session::layer_of(const fs::path& file) const {
+  std::vector<fs::path> layers{shader_dir_};
+  layers.insert(layers.end(), library_dirs_.begin(), library_dirs_.end());
+  for (const fs::path& dir : layers) {
+    const fs::path rel = file.lexically_relative(dir);
+    if (!rel.empty() && rel.native().rfind("..", 0) != 0) return dir;
+  }
+  return {};
+}
+
+bool Session::shadowed(const fs::path& file) const {
+  const fs::path layer = layer_of(file);
+  if (layer.empty() || layer == shader_dir_) return false;
+  std::error_code ec;
+  return fs::exists(shader_dir_ / file.lexically_relative(layer), ec);
+}
+
+std::optional<fs::path> Session::library_counterpart(const fs::path& file) const {
+  if (library_dirs_.empty() || layer_of(file) != shader_dir_) return std::nullopt;
   const fs::path rel = file.lexically_relative(shader_dir_);
-  return rel.empty() || rel.native().rfind("..", 0) == 0;
+  for (const fs::path& dir : library_dirs_) {
+    std::error_code ec;
+    if (fs::is_regular_file(dir / rel, ec)) return dir / rel;
+  }
+  return std::nullopt;
 }
 
 void Session::watch_outside_files() {
@@ -112,6 +152,7 @@ std::string Session::relative(const fs::path& file) const {
 void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height) {
   render::RendererOptions ro;
   ro.shader_dir = shader_dir_;
+  ro.library_shader_dirs = library_dirs_;
   ro.visibility_output = options_.visibility_output;
   ro.width = width;
   ro.height = height;
@@ -183,21 +224,32 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
   ReloadRecord rec;
   rec.event = Clock::now();
   std::set<fs::path> files = retry_;
+  std::vector<fs::path> overlay_removed;
   const auto read = renderer_->shader_files();
   for (const auto& c : changes) {
     // Another file in the directory of a symlinked shader's target: not ours.
     if (outside_tree(c.path) && std::find(read.begin(), read.end(), c.path) == read.end()) continue;
+    // A library file that the overlay has its own copy of: nothing reads it.
+    if (shadowed(c.path)) continue;
     rec.event = std::min(rec.event, c.first_seen);
     if (c.exists) {
       files.insert(c.path);
+    } else if (const auto library = library_counterpart(c.path)) {
+      // An overlay's file removed: the programs that read it now read the library's.
+      files.insert(*library);
+      overlay_removed.push_back(c.path);
     } else if (std::find(read.begin(), read.end(), c.path) != read.end()) {
       rec.deleted.push_back(c.path);
     }
   }
   // A batch of deletions only: nothing to compile (the failed files are retried with the next
   // batch that brings a file back or changes one).
-  if (std::none_of(changes.begin(), changes.end(), [](const FileChange& c) { return c.exists; }))
+  if (overlay_removed.empty() &&
+      std::none_of(changes.begin(), changes.end(), [](const FileChange& c) { return c.exists; }))
     files.clear();
+  for (const auto& f : overlay_removed)
+    log("[reload] " + relative(f) + " was removed from " + shader_dir_.string() +
+        ": the library's copy is read instead");
   // A retried file that is gone now: its pipelines wait for it to come back.
   for (auto it = files.begin(); it != files.end();) {
     std::error_code ec;

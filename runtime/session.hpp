@@ -38,6 +38,10 @@ namespace penumbra::runtime {
 
 struct SessionOptions {
   std::filesystem::path shader_dir;     // empty: the repo's shaders/ (compiled in)
+  // Under shader_dir, in order: files shader_dir lacks are read from here (penumbra-view
+  // --shader-dir DIR puts the installed library here, so DIR may hold only the files a user
+  // changed). Watched too.
+  std::vector<std::filesystem::path> library_shader_dirs;
   std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
   bool watch = true;                    // false: no watcher (reload only through reload())
   bool visibility_output = false;       // the renderer writes each light's visibility (--truth)
@@ -71,6 +75,8 @@ class Session {
   render::Renderer& renderer() { return *renderer_; }
   const scene::Scene& scene() { return renderer_->scene(); }
   std::filesystem::path shader_dir() const { return shader_dir_; }
+  // Where files shader_dir lacks are read from (SessionOptions::library_shader_dirs).
+  const std::vector<std::filesystem::path>& library_dirs() const { return library_dirs_; }
   Watcher* watcher() { return watcher_.get(); }
 
   // Replaces the scene (a new renderer; the size given in the options is kept). On a failure
@@ -125,12 +131,20 @@ class Session {
   // Watches the directories of the files the pipelines read outside the shader tree (the
   // targets of symlinked shaders), so editing a target reloads too.
   void watch_outside_files();
+  // Outside shader_dir and the library directories (read through a symlink).
   bool outside_tree(const std::filesystem::path& file) const;
+  // The directory of shader_dir and the library directories that holds file; empty: none.
+  std::filesystem::path layer_of(const std::filesystem::path& file) const;
+  // A library file that shader_dir has a file of the same name for.
+  bool shadowed(const std::filesystem::path& file) const;
+  // For a file of shader_dir, the library's file of the same name, when there is one.
+  std::optional<std::filesystem::path> library_counterpart(const std::filesystem::path& file) const;
   void rebuild(const scene::Scene& scene, std::uint32_t width, std::uint32_t height);
 
   gpu::Context& ctx_;
   SessionOptions options_;
   std::filesystem::path shader_dir_;
+  std::vector<std::filesystem::path> library_dirs_;  // weakly canonical, without shader_dir_
   std::unique_ptr<render::Renderer> renderer_;
   std::unique_ptr<Watcher> watcher_;
   std::uint32_t width_ = 0, height_ = 0;

@@ -97,7 +97,7 @@ struct Renderer::Impl {
       : ctx(c),
         scene(s),
         shader_dir(o.shader_dir.empty() ? shader::default_shader_dir() : o.shader_dir),
-        registry(shader_dir),
+        registry(shader_dir, o.library_shader_dirs),
         res(c, scene, report, registry),
         timestamps(c, 32),
         recorder(c) {

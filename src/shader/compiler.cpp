@@ -131,6 +131,7 @@ struct SourceSet {
   std::map<std::string, std::string> contents;  // canonical path string -> file text
   std::map<std::string, std::string> served;    // the same, as glslang reads it
   std::vector<fs::path> dependencies;           // first-read order, unique
+  std::set<std::string> absent;                 // searched before an include was found
   std::vector<fs::path> display_roots;          // for short names in messages
   std::list<std::string> messages;              // messages returned to glslang (stable storage)
   std::vector<std::string> preamble_lines;      // for errors glslang reports in the preamble
@@ -207,7 +208,7 @@ class Includer final : public glslang::TShader::Includer {
     std::vector<fs::path> dirs;
     if (const auto it = sources_.real.find(includer_name);
         it != sources_.real.end() && (includer_name != sources_.main_name || sources_.main_path)) {
-      dirs.push_back(it->second.parent_path());
+      add_own_directory(it->second.parent_path(), dirs);
     }
     dirs.insert(dirs.end(), include_dirs_.begin(), include_dirs_.end());
     IncludeResult* result = resolve(header_name, includer_name, depth, dirs);
@@ -252,6 +253,20 @@ class Includer final : public glslang::TShader::Includer {
     return new IncludeResult("", stored.data(), stored.size(), nullptr);
   }
 
+  // The includer's directory; with overlay_include_dirs, the same directory in every layer (in
+  // layer order) when it lies in one of them.
+  void add_own_directory(const fs::path& own, std::vector<fs::path>& dirs) const {
+    if (options_.overlay_include_dirs) {
+      for (const fs::path& root : include_dirs_) {
+        const fs::path rel = own.lexically_relative(root);
+        if (rel.empty() || *rel.begin() == "..") continue;
+        for (const fs::path& layer : include_dirs_) dirs.push_back((layer / rel).lexically_normal());
+        return;
+      }
+    }
+    dirs.push_back(own);
+  }
+
   // The include stack: stack_[0] is the main source, stack_[d] the file included at depth d.
   // glslang releases an include only when it is done with it, but the depth it passes is the
   // reliable signal, so the stack is cut back to the includer's depth on every request.
@@ -277,6 +292,8 @@ class Includer final : public glslang::TShader::Includer {
             not_a_file.empty() && problem != "not found") {
           not_a_file = "include \"" + header + "\" (" + candidate.lexically_normal().string() +
                        ") " + problem;
+        } else if (problem == "not found") {
+          sources_.absent.insert(candidate.lexically_normal().string());
         }
         continue;
       }
@@ -569,11 +586,13 @@ struct ShaderSetup {
 //   penumbra-spirv-cache 1\n
 //   key <the preprocessed key, hex>\n
 //   dep <hash of the contents, hex> <path>\n     one per file read, in first-read order
+//   absent <path>\n                               one per place searched before an include
+//                                                 was found: the entry is stale once it exists
 //   note <text>\n                                 one per CompiledShader::notes line
 //   spirv <word count>\n
 //   <the words, native byte order>
 
-constexpr std::string_view kDiskMagic = "penumbra-spirv-cache 1\n";
+constexpr std::string_view kDiskMagic = "penumbra-spirv-cache 2\n";
 
 std::string hex64(uint64_t v) {
   char buf[17];
@@ -590,6 +609,7 @@ uint64_t content_hash(std::string_view text) {
 struct DiskEntry {
   uint64_t key = 0;
   std::vector<fs::path> dependencies;
+  std::vector<std::string> absent;
   std::vector<uint32_t> spirv;
   std::vector<std::string> notes;
 };
@@ -625,6 +645,14 @@ std::optional<DiskEntry> disk_lookup(const fs::path& dir, uint64_t direct_key) {
       entry.notes.emplace_back(l->substr(5));
       continue;
     }
+    if (l->starts_with("absent ")) {
+      std::error_code ec;
+      if (fs::symlink_status(fs::path(std::string(l->substr(7))), ec).type() !=
+          fs::file_type::not_found)
+        return std::nullopt;  // something is there now: the include may resolve elsewhere
+      entry.absent.emplace_back(l->substr(7));
+      continue;
+    }
     if (!l->starts_with("dep ") || l->size() < 4 + 16 + 2) return std::nullopt;
     const uint64_t want = std::strtoull(std::string(l->substr(4, 16)).c_str(), nullptr, 16);
     const fs::path path(std::string(l->substr(4 + 16 + 1)));
@@ -643,6 +671,10 @@ bool disk_store(const fs::path& dir, uint64_t direct_key, const DiskEntry& entry
     const std::string path = entry.dependencies[i].string();
     if (path.find('\n') != std::string::npos) return false;
     text += "dep " + hex64(dependency_hashes[i]) + " " + path + "\n";
+  }
+  for (const std::string& absent : entry.absent) {
+    if (absent.find('\n') != std::string::npos) return false;
+    text += "absent " + absent + "\n";
   }
   for (const std::string& note : entry.notes) {
     if (note.find('\n') != std::string::npos) return false;
@@ -815,6 +847,7 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
     direct.add_field(options_.include_once ? "once" : "every");
     direct.add_field(options_.debug_info ? "debug-info" : "no-debug-info");
     direct.add_field(options_.keep_uncalled ? "keep-uncalled" : "drop-uncalled");
+    direct.add_field(options_.overlay_include_dirs ? "layers" : "libraries");
     direct.add_field(define_text);
     direct.add_field(main_name);
     direct.add_field(main_path ? main_path->string() : std::string());
@@ -918,7 +951,10 @@ CompiledShader Compiler::compile(const std::string& main_text, const std::string
       hashes.push_back(content_hash(it != sources.contents.end() ? it->second : main_text));
     }
     disk_store(options_.disk_cache_dir, direct_key,
-               DiskEntry{result.key, result.dependencies, result.spirv, result.notes}, hashes);
+               DiskEntry{result.key, result.dependencies,
+                         std::vector<std::string>(sources.absent.begin(), sources.absent.end()),
+                         result.spirv, result.notes},
+               hashes);
   }
   return result;
 }

@@ -9,19 +9,61 @@
 namespace penumbra::shader {
 namespace fs = std::filesystem;
 
-ProgramRegistry::ProgramRegistry(fs::path shader_dir)
-    : shader_dir_(std::move(shader_dir)), compiler_([this] {
+ProgramRegistry::ProgramRegistry(fs::path shader_dir) : ProgramRegistry(std::move(shader_dir), {}) {}
+
+ProgramRegistry::ProgramRegistry(fs::path shader_dir, std::vector<fs::path> library_dirs)
+    : shader_dir_(std::move(shader_dir)),
+      search_path_([&] {
+        std::vector<fs::path> dirs{shader_dir_}, path;
+        dirs.insert(dirs.end(), library_dirs.begin(), library_dirs.end());
+        for (const fs::path& d : dirs) {
+          std::error_code ec;
+          fs::path c = fs::weakly_canonical(d, ec);
+          if (ec || c.empty()) c = d;
+          if (std::find(path.begin(), path.end(), c) == path.end()) path.push_back(c);
+        }
+        return path;
+      }()),
+      compiler_([this] {
         CompileOptions o;
-        o.include_dirs = {shader_dir_};
+        o.include_dirs = search_path_;
+        o.overlay_include_dirs = true;
         o.disk_cache_dir = default_disk_cache_dir();
         return o;
       }()) {}
+
+fs::path ProgramRegistry::resolve(const std::string& name) const {
+  for (const fs::path& dir : search_path_) {
+    std::error_code ec;
+    if (fs::exists(dir / name, ec)) return dir / name;
+  }
+  return shader_dir_ / name;
+}
+
+std::string ProgramRegistry::layered_name(const fs::path& file) const {
+  std::error_code ec;
+  const fs::path f = fs::weakly_canonical(fs::absolute(file, ec), ec);
+  for (const fs::path& dir : search_path_) {
+    const fs::path rel = f.lexically_relative(dir);
+    if (!rel.empty() && *rel.begin() != "..") return rel.generic_string();
+  }
+  return {};
+}
+
+bool ProgramRegistry::reads(const Program& p, const std::set<fs::path>& files,
+                            const std::set<std::string>& names) const {
+  for (const fs::path& dep : p.dependencies) {
+    if (files.count(dep)) return true;
+    if (!names.empty() && search_path_.size() > 1 && names.count(layered_name(dep))) return true;
+  }
+  return false;
+}
 
 Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
                                 std::set<fs::path>* dependencies) {
   Spirvs out;
   for (const auto& src : sources) {
-    auto c = compiler_.compile_file(shader_dir_ / src.file, std::nullopt, src.defines);
+    auto c = compiler_.compile_file(resolve(src.file), std::nullopt, src.defines);
     if (dependencies)
       for (const auto& d : c.dependencies) dependencies->insert(fs::weakly_canonical(d));
     out.push_back(std::move(c.spirv));
@@ -125,7 +167,7 @@ std::string ProgramRegistry::interface_report(const Program& p, const Spirvs& sp
     } catch (const Error& e) {
       stage_changes = {e.what()};
     }
-    const fs::path stage_file = shader_dir_ / p.sources[stage].file;
+    const fs::path stage_file = resolve(p.sources[stage].file);
     for (const std::string& c : stage_changes) {
       std::string where;
       const std::vector<std::string> names = names_in(c);
@@ -154,10 +196,13 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   // that became a symlink (to /dev/zero, say) canonicalizes elsewhere, yet the programs that
   // read it must see the change and report it.
   std::set<fs::path> files;
+  std::set<std::string> names;  // with libraries: the changed files' names in the layers
   for (const auto& f : changed_files) {
     std::error_code ec;
     files.insert(fs::weakly_canonical(f));
     files.insert(fs::absolute(f, ec).lexically_normal());
+    if (search_path_.size() > 1)
+      if (std::string name = layered_name(f); !name.empty()) names.insert(std::move(name));
   }
 
   // 1. Recompile and check every program the change reaches, in parallel; create nothing yet.
@@ -169,12 +214,8 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     Install install;
   };
   std::vector<Pending> pending;
-  for (auto& p : programs_) {
-    const bool affected = std::any_of(files.begin(), files.end(), [&](const fs::path& f) {
-      return p.dependencies.count(f) > 0;
-    });
-    if (affected) pending.push_back(Pending{&p, {}, {}, {}, {}});
-  }
+  for (auto& p : programs_)
+    if (reads(p, files, names)) pending.push_back(Pending{&p, {}, {}, {}, {}});
   parallel_for(pending.size(), [&](size_t i) {
     Pending& next = pending[i];
     const Program& p = *next.program;
@@ -249,10 +290,13 @@ std::vector<fs::path> ProgramRegistry::files() const {
 }
 
 std::vector<std::string> ProgramRegistry::programs_reading(const fs::path& file) const {
-  const fs::path f = fs::weakly_canonical(file);
+  const std::set<fs::path> files{fs::weakly_canonical(file)};
+  std::set<std::string> names;
+  if (search_path_.size() > 1)
+    if (std::string name = layered_name(file); !name.empty()) names.insert(std::move(name));
   std::vector<std::string> out;
   for (const auto& p : programs_)
-    if (p.dependencies.count(f)) out.push_back(p.name);
+    if (reads(p, files, names)) out.push_back(p.name);
   return out;
 }
 

@@ -623,6 +623,45 @@ TEST(ShaderCompiler, DiskCacheAnswersALaterProcessUntilAFileItReadChanges) {
                    .from_disk);
 }
 
+// Include directories as layers (a user's overlay over a library): with overlay_include_dirs a
+// library file's own-directory include reads the overlay's copy first, and a file that appears
+// earlier on the search path after a compile was cached wins the next compile; the disk cache
+// never answers with what it shadowed.
+TEST(ShaderCompiler, AFileThatAppearsInAnOverlayWinsOverTheLibraryAndTheDiskCache) {
+  TempDir dir;
+  const fs::path over = dir.path() / "over", lib = dir.path() / "lib";
+  fs::create_directories(over);
+  write_file(lib / "main.comp",
+             "#version 460\n#include \"sub/value.glsl\"\nlayout(local_size_x = 1) in;\n"
+             "layout(std430, binding = 0) buffer B { float v[]; };\n"
+             "void main() { v[0] = value(); }\n");
+  write_file(lib / "sub/value.glsl", "#include \"two.glsl\"\nfloat value() { return two(); }\n");
+  write_file(lib / "sub/two.glsl", "float two() { return 2.0; }\n");
+  CompileOptions options;
+  options.include_dirs = {over, lib};
+  options.overlay_include_dirs = true;
+  options.disk_cache_dir = dir.path() / "cache";
+  auto compile = [&] { return Compiler(options).compile_file(lib / "main.comp"); };
+
+  const CompiledShader library = compile();
+  EXPECT_TRUE(compile().from_disk);
+  write_file(over / "sub/two.glsl", "float two() { return 3.0; }\n");
+  const CompiledShader overlaid = compile();
+  EXPECT_FALSE(overlaid.from_disk);
+  EXPECT_NE(overlaid.spirv, library.spirv);
+  EXPECT_THAT(overlaid.dependencies, ::testing::Contains(over / "sub/two.glsl"));
+  EXPECT_TRUE(compile().from_disk);
+  fs::remove(over / "sub/two.glsl");
+  EXPECT_EQ(compile().spirv, library.spirv);  // gone again: the library's
+
+  // Separate libraries (the default): a file's own directory comes first, as before.
+  options.overlay_include_dirs = false;
+  write_file(over / "sub/two.glsl", "float two() { return 3.0; }\n");
+  const CompiledShader separate = compile();
+  EXPECT_EQ(separate.spirv, library.spirv);
+  EXPECT_THAT(separate.dependencies, Not(::testing::Contains(over / "sub/two.glsl")));
+}
+
 TEST(ShaderCompiler, StageIsPartOfTheKey) {
   Compiler compiler;
   const std::string source = "#version 460\nvoid main() {}\n";

@@ -79,6 +79,41 @@ TEST(ProgramRegistry, RebuildsExactlyTheProgramsThatReadAChangedFile) {
   EXPECT_EQ(waits, 1);  // nothing to create: no wait
 }
 
+// An overlay over a library (penumbra-view --shader-dir DIR over the installed shaders): stage
+// files and includes come from the overlay when it has them, else from the library; a file that
+// appears in or leaves the overlay rebuilds the programs that read its name in either layer.
+TEST(ProgramRegistry, AnOverlayWinsWhereItHasAFileAndTheLibraryGivesTheRest) {
+  Tree t;
+  const fs::path over = t.root / "over";
+  fs::create_directories(over / "lib");
+  ProgramRegistry r(over, {t.root});
+  std::map<std::string, Spirvs> made;
+  r.add("one", {{"one.comp", {}}}, [&](const Spirvs& s) { made["one"] = s; });
+  r.add("two", {{"two.comp", {}}}, [&](const Spirvs& s) { made["two"] = s; });
+  const Spirvs library_one = made["one"];
+  EXPECT_THAT(r.search_path(), ElementsAre(fs::weakly_canonical(over), fs::weakly_canonical(t.root)));
+  EXPECT_EQ(r.resolve("one.comp"), fs::weakly_canonical(t.root) / "one.comp");
+  EXPECT_EQ(r.layered_name(t.root / "lib/a.glsl"), "lib/a.glsl");
+  EXPECT_EQ(r.layered_name(over / "lib/a.glsl"), "lib/a.glsl");
+
+  // The overlay gets its own a.glsl: "one" reads it, "two" is untouched.
+  std::ofstream(over / "lib/a.glsl") << "float a() { return 5.0; }\n";
+  auto res = r.reload({over / "lib/a.glsl"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("one"));
+  EXPECT_NE(made["one"], library_one);
+  EXPECT_THAT(r.programs_reading(over / "lib/a.glsl"), ElementsAre("one"));
+  // A stage file in the overlay.
+  t.write("over/two.comp", Tree::stage("lib/a.glsl", "a() + 1.0"));
+  res = r.reload({over / "two.comp"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("two"));
+  EXPECT_EQ(r.resolve("two.comp"), fs::weakly_canonical(over) / "two.comp");
+  // Removed from the overlay: the library's again, bit for bit.
+  fs::remove(over / "lib/a.glsl");
+  res = r.reload({t.root / "lib/a.glsl"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("one", "two"));
+  EXPECT_EQ(made["one"], library_one);
+}
+
 TEST(ProgramRegistry, AFailedCompileKeepsTheLastGoodProgramAndNamesTheFile) {
   Tree t;
   ProgramRegistry r(t.root);

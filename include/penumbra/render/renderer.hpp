@@ -21,6 +21,9 @@ namespace penumbra::render {
 struct RendererOptions {
   // Where the stage shaders (render/…) and the library (penumbra/…) live.
   std::filesystem::path shader_dir;  // empty: the repo's shaders/ (compiled in)
+  // Read where shader_dir lacks a file (an overlay of a few files over the installed library):
+  // shader::ProgramRegistry's library directories.
+  std::vector<std::filesystem::path> library_shader_dirs;
   uint32_t width = 0, height = 0;    // 0: the scene's [render] size
   // The forward pass also writes each light's visibility as the lighting uses it (two RGBA32F
   // targets, read_visibility()): what the ray-traced reference compares with. Off by default:

@@ -62,9 +62,15 @@ struct CompileOptions {
   // and lists every file the compile read with a hash of its contents: it answers only while
   // each of them still reads the same. A hit starts no glslang. Entries are written atomically
   // (a temporary file renamed into place); a directory that cannot be written only costs the
-  // compile. Not seen: a new file that would shadow an include earlier on the search path.
+  // compile. An entry also lists the places searched before each include was found: a file
+  // that appears there later (an overlay's copy of a library file) makes the entry stale.
   // default_disk_cache_dir() gives the directory the layers above use.
   std::filesystem::path disk_cache_dir;
+  // The include directories are layers of one tree (a user's overlay over a library, files of
+  // the first winning): a file's own-directory lookup `#include "x"` from <layer>/a/b.glsl tries
+  // <each layer in order>/a/x instead of only its own layer's a/x. Off: include directories are
+  // separate libraries.
+  bool overlay_include_dirs = false;
 };
 
 struct CompiledShader {

@@ -10,7 +10,7 @@
 // recreated. A compile error or an interface change in any of them keeps every last good
 // pipeline; a creation that fails puts back the ones already recreated.
 //
-//   shader::ProgramRegistry registry(shader_dir);
+//   shader::ProgramRegistry registry(shader_dir);       // or (overlay, {library}): see below
 //   registry.add("tonemap", {{"render/tonemap.comp", {}}}, [&](const shader::Spirvs& spirv) {
 //     tonemap = std::make_unique<gpu::ComputePipeline>(ctx, spirv[0], layout);
 //   });
@@ -31,7 +31,8 @@
 
 namespace penumbra::shader {
 
-// A stage of a program: a file relative to the registry's shader directory, with its defines.
+// A stage of a program: a file relative to the registry's shader directories (the first that
+// has it), with its defines.
 struct ProgramSource {
   std::string file;
   std::vector<Define> defines;
@@ -63,8 +64,22 @@ class ProgramRegistry {
   using Prepare = std::function<Install(const Spirvs&)>;
 
   explicit ProgramRegistry(std::filesystem::path shader_dir);
+  // An overlay over libraries: a stage file or an include is read from shader_dir when it is
+  // there, else from the first library directory that has it (a user's copy of a few files over
+  // the installed library). A file that appears in or disappears from the overlay later counts
+  // as a change of the file of the same name: the programs that read it are rebuilt.
+  ProgramRegistry(std::filesystem::path shader_dir,
+                  std::vector<std::filesystem::path> library_dirs);
 
   const std::filesystem::path& shader_dir() const { return shader_dir_; }
+  // shader_dir, then the library directories: where files are looked up, in order.
+  const std::vector<std::filesystem::path>& search_path() const { return search_path_; }
+  // The file a relative name reads now: the first directory of the search path that has it
+  // (shader_dir / name when none does, for the error to name).
+  std::filesystem::path resolve(const std::string& name) const;
+  // The name of a file relative to the search path's directory that holds it (weakly
+  // canonical), or empty when it lies in none: files of one name in different layers are one.
+  std::string layered_name(const std::filesystem::path& file) const;
 
   // Compiles the sources and calls create with their SPIR-V; the program is then rebuilt by
   // reload() whenever one of the files it read changes. Throws penumbra::Error (with file:line)
@@ -102,7 +117,11 @@ class ProgramRegistry {
   std::string interface_report(const Program& p, const Spirvs& spirv,
                                const std::set<std::filesystem::path>& deps) const;
 
+  bool reads(const Program& p, const std::set<std::filesystem::path>& files,
+             const std::set<std::string>& names) const;
+
   std::filesystem::path shader_dir_;
+  std::vector<std::filesystem::path> search_path_;  // weakly canonical
   Compiler compiler_;
   std::vector<Program> programs_;
 };
