@@ -186,10 +186,7 @@ void Session::resize(uint32_t width, uint32_t height) {
 }
 
 std::vector<std::string> Session::keys() {
-  std::vector<std::string> k;
-  for (const auto& p : scene::params())
-    if (p.settable()) k.emplace_back(p.key);
-  return k;
+  return scene::scene_keys(renderer_->scene());
 }
 
 // The parameter table (scene/params.hpp) parses, range-checks and applies the value; a bad value

@@ -86,13 +86,14 @@ class Session {
   void resize(std::uint32_t width, std::uint32_t height);
 
   // Sets a parameter by its scene-file name ("shadows.filter", "contact.steps", "camera.position",
-  // "render.view", ...; see keys()). Throws penumbra::Error naming the key and value when the
+  // "render.view", "spot[0].resolution", ...; see keys()). Throws penumbra::Error naming the key and value when the
   // key is unknown or the value invalid. Parameters the frame reads (filters, biases, camera,
   // view) apply to the next frame; those that change what is built (cascades, resolution,
   // contact.*, reverse_z) rebuild the renderer, keeping the old one if that fails.
   void set(const std::string& key, const std::string& value);
   std::string get(const std::string& key);
-  static std::vector<std::string> keys();
+  // Every settable key of this scene (scene::scene_keys: a light's as spot[0].resolution).
+  std::vector<std::string> keys();
 
   void set_frame_index(std::uint32_t index) { frame_index_ = index; }
 

@@ -210,7 +210,7 @@ void Ui::panel(Session& session) {
     }
     ImGui::PopItemWidth();
     if (ImGui::CollapsingHeader("every parameter (Enter applies)")) {
-      for (const std::string& key : Session::keys()) {
+      for (const std::string& key : session.keys()) {
         char text[128];
         std::snprintf(text, sizeof text, "%s", session.get(key).c_str());
         if (ImGui::InputText(key.c_str(), text, sizeof text, ImGuiInputTextFlags_EnterReturnsTrue))

@@ -86,6 +86,85 @@ Access sun_field() {
           }};
 }
 
+// A field of every light of one kind ([[spot]] or [[point]]: Scene::spots or Scene::points);
+// get and set are the first light's.
+struct IndexedAccess {
+  std::optional<ParamValue> (*get_at)(const Scene&, std::size_t) = nullptr;
+  void (*set_at)(Scene&, std::size_t, const ParamValue&) = nullptr;
+  std::optional<ParamValue> (*get)(const Scene&) = nullptr;
+  void (*set)(Scene&, const ParamValue&) = nullptr;
+};
+
+template <auto List>
+auto& light_at(Scene& s, std::size_t i) {
+  auto& list = s.*List;
+  if (i >= list.size()) {
+    const std::string kind =
+        std::is_same_v<std::remove_cvref_t<decltype(list)>, std::vector<SpotLight>> ? "spot"
+                                                                                     : "point";
+    throw Error("the scene '" + s.name + "' has " + std::to_string(list.size()) + " " + kind +
+                " light" + (list.size() == 1 ? "" : "s") + ": no " + kind + "[" +
+                std::to_string(i) + "]");
+  }
+  return list[i];
+}
+
+template <auto List, auto Field>
+std::optional<ParamValue> light_get(const Scene& s, std::size_t i) {
+  if (i >= (s.*List).size()) return std::nullopt;
+  return to_value((s.*List)[i].*Field);
+}
+template <auto List, auto Field>
+void light_set(Scene& s, std::size_t i, const ParamValue& v) {
+  auto& f = light_at<List>(s, i).*Field;
+  f = from_value<std::remove_cvref_t<decltype(f)>>(v);
+}
+
+// A light's own filter: choice 0 ("inherit") is none, [shadows] filter's; i is Filter(i - 1).
+template <auto List>
+std::optional<ParamValue> filter_get(const Scene& s, std::size_t i) {
+  if (i >= (s.*List).size()) return std::nullopt;
+  const std::optional<Filter>& f = (s.*List)[i].filter;
+  return f ? std::int64_t(*f) + 1 : std::int64_t(0);
+}
+template <auto List>
+void filter_set(Scene& s, std::size_t i, const ParamValue& v) {
+  const std::int64_t choice = std::get<std::int64_t>(v);
+  light_at<List>(s, i).filter =
+      choice == 0 ? std::nullopt : std::optional<Filter>(Filter(choice - 1));
+}
+
+template <auto GetAt>
+std::optional<ParamValue> first_get(const Scene& s) {
+  return GetAt(s, 0);
+}
+template <auto SetAt>
+void first_set(Scene& s, const ParamValue& v) {
+  SetAt(s, 0, v);
+}
+
+template <auto GetAt, auto SetAt>
+IndexedAccess indexed() {
+  return {GetAt, SetAt, first_get<GetAt>, first_set<SetAt>};
+}
+template <auto List, auto Field>
+IndexedAccess light_field() {
+  return indexed<light_get<List, Field>, light_set<List, Field>>();
+}
+template <auto List>
+IndexedAccess light_filter() {
+  return indexed<filter_get<List>, filter_set<List>>();
+}
+
+std::string spot_angle_violation(const Scene& s, std::size_t i) {
+  if (i >= s.spots.size()) return "";
+  const SpotLight& l = s.spots[i];
+  if (l.inner_degrees > l.outer_degrees)
+    return "inner_angle = " + number_text(l.inner_degrees) + " must not exceed outer_angle = " +
+           number_text(l.outer_degrees);
+  return "";
+}
+
 struct Row {
   std::string_view key;
   ParamType type;
@@ -98,6 +177,9 @@ struct Row {
   std::string (*check)(const Scene&) = nullptr;
   bool ordinal_alias = false;
   bool custom_read = false;
+  IndexedAccess at = {};
+  std::string (*check_at)(const Scene&, std::size_t) = nullptr;
+  bool required = false;
 };
 
 std::string pcss_violation(const Scene& s) {
@@ -113,6 +195,8 @@ std::vector<Param> make_params() {
   using A = ParamApply;
   using T = ParamType;
   const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson", "evsm2"};
+  const std::vector<std::string_view> local_filters{"inherit", "hard",    "pcf",
+                                                    "pcss",    "poisson", "evsm2"};
   const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
   const std::vector<std::string_view> selections{"depth", "containment"};
   const std::vector<std::string_view> layouts{"cascades", "clipmap"};
@@ -205,6 +289,76 @@ std::vector<Param> make_params() {
        slider(0.0, 10.0)},
       {"sun.shadows", T::boolean, kAny, sun_field<&Sun::shadows>(), A::rebuild,
        "false: lit but casts no shadows (no cascades are built)"},
+      // [[spot]]: one row for every spot light, set as spot[i].<name>
+      {.key = "spot.position", .type = T::vec3, .range = kAny, .apply = A::frame,
+       .doc = "world position", .at = light_field<&S::spots, &SpotLight::position>(),
+       .required = true},
+      {.key = "spot.direction", .type = T::direction, .range = kAny, .apply = A::frame,
+       .doc = "non-zero; the cone's axis; or give `target`, a point the cone aims at",
+       .custom_read = true, .at = light_field<&S::spots, &SpotLight::direction>()},
+      {.key = "spot.color", .type = T::vec3, .range = kNonNegative, .apply = A::frame,
+       .doc = "linear RGB", .at = light_field<&S::spots, &SpotLight::color>()},
+      {.key = "spot.intensity", .type = T::number, .range = kNonNegative, .apply = A::frame,
+       .doc = "irradiance at about 1 m", .widget = slider(0.0, 100.0),
+       .at = light_field<&S::spots, &SpotLight::intensity>()},
+      {.key = "spot.outer_angle", .type = T::number, .range = open(0.0, 90.0), .apply = A::frame,
+       .doc = "degrees, half-angle of the cone", .widget = slider(1.0, 89.0),
+       .at = light_field<&S::spots, &SpotLight::outer_degrees>(),
+       .check_at = spot_angle_violation},
+      {.key = "spot.inner_angle", .type = T::number, .range = kNonNegative, .apply = A::frame,
+       .doc = "degrees, full intensity inside; at most `outer_angle` (a file that gives only a "
+              "smaller `outer_angle` gets that)",
+       .widget = slider(0.0, 89.0), .at = light_field<&S::spots, &SpotLight::inner_degrees>(),
+       .check_at = spot_angle_violation},
+      {.key = "spot.range", .type = T::number, .range = kPositive, .apply = A::frame,
+       .doc = "metres; the light ends here (smoothly), and so does its shadow map",
+       .widget = slider(0.5, 50.0), .at = light_field<&S::spots, &SpotLight::range>()},
+      {.key = "spot.radius", .type = T::number, .range = kNonNegative, .apply = A::frame,
+       .doc = "metres: the light is a sphere of this radius (the ray-traced reference samples "
+              "it; see docs/accuracy.md); 0 = a point, hard shadows",
+       .widget = slider(0.0, 1.0), .at = light_field<&S::spots, &SpotLight::radius>()},
+      {.key = "spot.shadows", .type = T::boolean, .range = kAny, .apply = A::rebuild,
+       .doc = "a shadow map for this light", .at = light_field<&S::spots, &SpotLight::shadows>()},
+      {.key = "spot.resolution", .type = T::integer, .range = closed(16, 16384),
+       .apply = A::rebuild, .doc = "shadow-map texels per side",
+       .at = light_field<&S::spots, &SpotLight::resolution>()},
+      {.key = "spot.filter", .type = T::choice, .range = kAny, .apply = A::frame,
+       .doc = "this light's own filter; `inherit`: `[shadows]` `filter` (`evsm2`: EVSM2 moments "
+              "of the map's linear depth, built for the lights that ask; `[shadows]` `evsm_*` "
+              "keys apply)",
+       .choices = local_filters, .at = light_filter<&S::spots>()},
+      // [[point]]: one row for every point light, set as point[i].<name>
+      {.key = "point.position", .type = T::vec3, .range = kAny, .apply = A::frame,
+       .doc = "world position", .at = light_field<&S::points, &PointLight::position>(),
+       .required = true},
+      {.key = "point.color", .type = T::vec3, .range = kNonNegative, .apply = A::frame,
+       .doc = "linear RGB", .at = light_field<&S::points, &PointLight::color>()},
+      {.key = "point.intensity", .type = T::number, .range = kNonNegative, .apply = A::frame,
+       .doc = "irradiance at about 1 m", .widget = slider(0.0, 100.0),
+       .at = light_field<&S::points, &PointLight::intensity>()},
+      {.key = "point.range", .type = T::number, .range = kPositive, .apply = A::frame,
+       .doc = "metres; the light ends here (smoothly)", .widget = slider(0.5, 50.0),
+       .at = light_field<&S::points, &PointLight::range>()},
+      {.key = "point.radius", .type = T::number, .range = kNonNegative, .apply = A::frame,
+       .doc = "metres: the light is a sphere of this radius (the ray-traced reference samples "
+              "it; see docs/accuracy.md); 0 = a point, hard shadows",
+       .widget = slider(0.0, 1.0), .at = light_field<&S::points, &PointLight::radius>()},
+      {.key = "point.shadows", .type = T::boolean, .range = kAny, .apply = A::rebuild,
+       .doc = "a shadow cube map for this light",
+       .at = light_field<&S::points, &PointLight::shadows>()},
+      {.key = "point.resolution", .type = T::integer, .range = closed(16, 8192),
+       .apply = A::rebuild, .doc = "texels per cube face",
+       .at = light_field<&S::points, &PointLight::resolution>()},
+      {.key = "point.filter", .type = T::choice, .range = kAny, .apply = A::frame,
+       .doc = "this light's own filter; `inherit`: `[shadows]` `filter` (`evsm2`: EVSM2 moments "
+              "of the cube, built for the lights that ask; `[shadows]` `evsm_*` keys apply)",
+       .choices = local_filters, .at = light_filter<&S::points>()},
+      {.key = "point.fit_to_camera", .type = T::boolean, .range = kAny, .apply = A::rebuild,
+       .doc = "fit the cube to the camera (`shadow::fit_point_shadow`): only the faces that see "
+              "an object in view, each object clipped to the view's box, are drawn (the others "
+              "stay cleared: lit), and the stored distance spans the objects in view and their "
+              "possible casters instead of the light's `range`",
+       .at = light_field<&S::points, &PointLight::fit_to_camera>()},
       // [shadows]
       {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,
        "how shadow maps are filtered (`evsm2`: the sun's cascades; a spot or point light takes "
@@ -464,6 +618,14 @@ std::vector<Param> make_params() {
     p.get = r.access.get;
     p.set = r.access.set;
     p.check = r.check;
+    p.required = r.required;
+    p.get_at = r.at.get_at;
+    p.set_at = r.at.set_at;
+    p.check_at = r.check_at;
+    if (p.per_light()) {  // get and set: the first light's
+      p.get = r.at.get;
+      p.set = r.at.set;
+    }
     out.push_back(p);
   }
   return out;
@@ -510,14 +672,55 @@ const std::vector<Param>& params() {
   return table;
 }
 
+namespace {
+
+// "spot[1].range" -> the row key "spot.range" and the index 1; nullopt when the key has no
+// brackets; throws when they are malformed.
+struct Bracketed {
+  std::string row;
+  std::size_t light = 0;
+};
+std::optional<Bracketed> bracketed(std::string_view key) {
+  const auto open = key.find('[');
+  if (open == std::string_view::npos) return std::nullopt;
+  const auto close = key.find(']', open);
+  const std::string_view digits =
+      close == std::string_view::npos ? std::string_view() : key.substr(open + 1, close - open - 1);
+  const bool ok = open > 0 && close != std::string_view::npos && close + 2 < key.size() &&
+                  key[close + 1] == '.' && !digits.empty() && digits.size() <= 4 &&
+                  std::all_of(digits.begin(), digits.end(),
+                              [](char c) { return c >= '0' && c <= '9'; });
+  if (!ok)
+    throw Error("parameter '" + std::string(key) +
+                "': expected TABLE[INDEX].NAME for a light's key, e.g. spot[0].resolution");
+  return Bracketed{std::string(key.substr(0, open)) + "." + std::string(key.substr(close + 2)),
+                   std::size_t(std::stoul(std::string(digits)))};
+}
+
+}  // namespace
+
 const Param* find_param(std::string_view key) {
+  std::optional<Bracketed> b;
+  try {
+    b = bracketed(key);
+  } catch (const Error&) {
+    return nullptr;
+  }
+  const std::string_view row = b ? std::string_view(b->row) : key;
   for (const Param& p : params())
-    if (p.key == key) return &p;
+    if (p.key == row) return b && !p.per_light() ? nullptr : &p;
   return nullptr;
 }
 
 const Param& param(std::string_view key) {
   if (const Param* p = find_param(key)) return *p;
+  const std::optional<Bracketed> b = bracketed(key);  // throws when malformed
+  const std::string row = b ? b->row : std::string(key);
+  if (b) {
+    if (const Param* p = find_param(row); p && !p->per_light())
+      throw Error("parameter '" + std::string(key) + "': [" + std::string(p->table()) +
+                  "] is one table, not one per light; the key is '" + row + "'");
+  }
   // A "did you mean": the known key sharing the longest prefix.
   const Param* best = nullptr;
   std::size_t best_len = 0;
@@ -525,13 +728,47 @@ const Param& param(std::string_view key) {
   for (const Param& p : params()) {
     if (!p.settable()) continue;
     std::size_t n = 0;
-    while (n < p.key.size() && n < key.size() && p.key[n] == key[n]) ++n;
+    while (n < p.key.size() && n < row.size() && p.key[n] == row[n]) ++n;
     if (n > best_len) best_len = n, best = &p;
-    all += (all.empty() ? "" : ", ") + std::string(p.key);
+    all += (all.empty() ? "" : ", ") +
+           (p.per_light() ? light_key(p, 0) : std::string(p.key));
   }
   std::string msg = "unknown parameter '" + std::string(key) + "'";
-  if (best && best_len >= 3) msg += " (did you mean '" + std::string(best->key) + "'?)";
+  if (best && best_len >= 3)
+    msg += " (did you mean '" +
+           (best->per_light() ? light_key(*best, b ? b->light : 0) : std::string(best->key)) +
+           "'?)";
   throw Error(msg + "; known: " + all);
+}
+
+KeyRef parse_key(std::string_view key) {
+  const Param& p = param(key);
+  const std::optional<Bracketed> b = bracketed(key);
+  if (p.per_light() && !b)
+    throw Error("parameter '" + std::string(key) + "': name the light, e.g. " + light_key(p, 0));
+  return {&p, b ? b->light : 0};
+}
+
+std::size_t light_count(const Scene& scene, std::string_view table) {
+  if (table == "spot") return scene.spots.size();
+  if (table == "point") return scene.points.size();
+  return 0;
+}
+
+std::string light_key(const Param& p, std::size_t light) {
+  return std::string(p.table()) + "[" + std::to_string(light) + "]." + std::string(p.name());
+}
+
+std::vector<std::string> scene_keys(const Scene& scene, bool settable_only) {
+  std::vector<std::string> out;
+  for (const Param& p : params())
+    if (!p.per_light() && (!settable_only || p.settable())) out.emplace_back(p.key);
+  // The lights' keys after the singleton tables', light by light.
+  for (std::string_view table : {"spot", "point"})
+    for (std::size_t i = 0; i < light_count(scene, table); ++i)
+      for (const Param* p : params_of(table))
+        if (!settable_only || p->settable()) out.push_back(light_key(*p, i));
+  return out;
 }
 
 std::vector<const Param*> params_of(std::string_view table) {
@@ -645,8 +882,11 @@ ParamValue parse_value(const Param& p, std::string_view text) {
 }
 
 std::string default_text(const Param& p) {
+  if (p.required) return "required";
   Scene defaults;
   defaults.sun = Sun{};
+  defaults.spots.emplace_back();
+  defaults.points.emplace_back();
   const auto v = p.get(defaults);
   return v ? format_value(p, *v) : "";
 }
@@ -684,6 +924,7 @@ std::string markdown_row(const Param& p) {
     }
   }
   if (p.custom_read) def = "—";
+  if (p.required) def = "required";
   const std::string meaning =
       range.empty() ? std::string(p.doc) : range + "; " + std::string(p.doc);
   return "| " + quote(p.name()) + " | " + type + " | " + def + " | " + meaning + " |";
@@ -696,9 +937,12 @@ std::string markdown_rows(std::string_view table) {
 }
 
 std::string get_param(const Scene& scene, std::string_view key) {
-  const Param& p = param(key);
-  const auto v = p.get(scene);
-  if (!v) return "(no " + std::string(p.table()) + ")";
+  const auto [pp, light] = parse_key(key);
+  const Param& p = *pp;
+  const auto v = p.per_light() ? p.get_at(scene, light) : p.get(scene);
+  if (!v)
+    return "(no " + std::string(p.table()) + (p.per_light() ? "[" + std::to_string(light) + "]" : "") +
+           ")";
   return format_value(p, *v);
 }
 
@@ -720,23 +964,38 @@ void set_params(Scene& scene, const std::vector<std::pair<std::string, std::stri
 }
 
 void set_param(Scene& scene, std::string_view key, std::string_view text) {
-  const Param& p = param(key);
+  const auto [pp, light] = parse_key(key);
+  const Param& p = *pp;
   if (!p.settable())
     throw Error(std::string(key) + ": set in the scene file only (the session's size and frame " +
                 "count come from its window or flags)");
-  const ParamValue v = parse_value(p, text);
+  const ParamValue v = [&] {
+    try {
+      return parse_value(p, text);
+    } catch (const Error& e) {  // named as the caller wrote it: spot[1].range, not spot.range
+      const std::string message = e.what();
+      if (!p.per_light() || !message.starts_with(p.key)) throw;
+      throw Error(std::string(key) + message.substr(p.key.size()));
+    }
+  }();
   Scene next = scene;
+  const auto apply = [&](Scene& s) {
+    if (p.per_light())
+      p.set_at(s, light, v);
+    else
+      p.set(s, v);
+  };
   try {
-    p.set(next, v);
+    apply(next);
   } catch (const Error& e) {
     throw Error(std::string(key) + ": " + e.what());
   }
-  if (p.check != nullptr) {
-    const std::string violation = p.check(next);
-    if (!violation.empty())
-      throw Error(std::string(key) + " " + std::string(text) + ": " + violation);
-  }
-  p.set(scene, v);
+  const std::string violation = p.check     ? p.check(next)
+                                : p.check_at ? p.check_at(next, light)
+                                             : std::string();
+  if (!violation.empty())
+    throw Error(std::string(key) + " " + std::string(text) + ": " + violation);
+  apply(scene);
 }
 
 std::string camera_violation(const Scene& scene) {
@@ -751,9 +1010,17 @@ std::string camera_violation(const Scene& scene) {
   return "";
 }
 
-std::string unused_reason(const Scene& scene, const Param& p) {
+std::string unused_reason(const Scene& scene, const Param& p, std::size_t light) {
   const std::string_view table = p.table(), name = p.name();
   if (table == "camera" || table == "render") return "";
+  if (p.per_light()) {
+    if (light >= light_count(scene, table))
+      return "no " + std::string(table) + "[" + std::to_string(light) + "]";
+    const bool shadows = table == "spot" ? scene.spots[light].shadows : scene.points[light].shadows;
+    if (!shadows && (name == "resolution" || name == "filter" || name == "fit_to_camera"))
+      return "the light casts no shadows";
+    return "";
+  }
   if (table == "sun") return scene.sun ? "" : "no sun";
   if (table == "contact") {
     return name == "steps" || scene.contact.step_count > 0 ? "" : "contact steps is 0";

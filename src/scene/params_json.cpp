@@ -64,9 +64,16 @@ std::string params_json(const Scene* scene) {
       << ", \"hi_open\": " << (p.range.hi_open ? "true" : "false") << "}, \"choices\": [";
     for (size_t i = 0; i < p.choices.size(); ++i) o << (i ? ", " : "") << json_string(p.choices[i]);
     o << "], \"doc\": " << json_string(p.doc) << ", \"default\": " << json_string(default_text(p));
+    o << ", \"per_light\": " << (p.per_light() ? "true" : "false");
     if (scene) {
       const auto v = p.get ? p.get(*scene) : std::nullopt;
       o << ", \"value\": " << (v ? json_string(format_value(p, *v)) : std::string("null"));
+      if (p.per_light()) {  // every light's, by index: spot[i].name
+        o << ", \"values\": [";
+        for (std::size_t i = 0; i < light_count(*scene, p.table()); ++i)
+          o << (i ? ", " : "") << json_string(format_value(p, *p.get_at(*scene, i)));
+        o << "]";
+      }
     }
     o << "}";
     first = false;

@@ -29,59 +29,71 @@ std::vector<std::string_view> table_keys(std::string_view table,
   return extra;
 }
 
-void read_param(const Reader& r, const Param& p, Scene& scene) {
+// A row's value from the file into the scene (for a per-light row, into light `light`).
+void read_param(const Reader& r, const Param& p, Scene& scene, std::size_t light = 0) {
   const std::string_view key = p.name();
   const toml::node* node = r.get(key);
-  if (node == nullptr) return;
+  if (node == nullptr) {
+    if (p.required) r.missing(key);
+    return;
+  }
+  const auto set = [&](const ParamValue& v) {
+    if (p.per_light())
+      p.set_at(scene, light, v);
+    else
+      p.set(scene, v);
+  };
   switch (p.type) {
     case ParamType::number:
-      p.set(scene, *r.opt_number(key, p.range));
+      set(*r.opt_number(key, p.range));
       break;
     case ParamType::integer:
-      p.set(scene, *r.opt_integer(key, std::int64_t(p.range.lo), std::int64_t(p.range.hi)));
+      set(*r.opt_integer(key, std::int64_t(p.range.lo), std::int64_t(p.range.hi)));
       break;
     case ParamType::boolean:
-      p.set(scene, *r.opt_bool(key));
+      set(*r.opt_bool(key));
       break;
     case ParamType::choice: {
       if (p.ordinal_alias && node->is_integer()) {
-        p.set(scene, *r.opt_integer(key, 0, std::int64_t(p.choices.size()) - 1));
+        set(*r.opt_integer(key, 0, std::int64_t(p.choices.size()) - 1));
         break;
       }
       Names<std::int64_t> names;
       for (std::size_t i = 0; i < p.choices.size(); ++i)
         names.emplace_back(p.choices[i], std::int64_t(i));
-      p.set(scene, *r.opt_enum(key, names));
+      set(*r.opt_enum(key, names));
       break;
     }
     case ParamType::vec3:
-      p.set(scene, *r.opt_vec<3>(key, p.range));
+      set(*r.opt_vec<3>(key, p.range));
       break;
     case ParamType::direction:
-      p.set(scene, glm::dvec3(*r.opt_direction(key)));
+      set(glm::dvec3(*r.opt_direction(key)));
       break;
   }
 }
 
-void read_table(const Reader& r, std::string_view table, Scene& scene, bool checks = true) {
+void read_table(const Reader& r, std::string_view table, Scene& scene, bool checks = true,
+                std::size_t light = 0) {
   for (const Param* p : params_of(table))
-    if (!p->custom_read) read_param(r, *p, scene);
+    if (!p->custom_read) read_param(r, *p, scene, light);
   if (!checks) return;
   // A check that spans keys (pcss_min_filter_texels <= pcss_max_filter_texels) fails at the
   // first of them the file gives, naming where each other one comes from: its line or the
   // default.
   for (const Param* p : params_of(table)) {
-    if (p->check == nullptr || !r.has(p->name())) continue;
-    const std::string violation = p->check(scene);
+    if ((p->check == nullptr && p->check_at == nullptr) || !r.has(p->name())) continue;
+    const std::string violation = p->check ? p->check(scene) : p->check_at(scene, light);
     if (violation.empty()) continue;
     std::string others;
     for (const Param* q : params_of(table)) {
-      if (q == p || q->check != p->check) continue;
+      if (q == p || q->check != p->check || q->check_at != p->check_at) continue;
       others += std::string(others.empty() ? " (" : "; ") + std::string(q->name()) +
                 (r.has(q->name()) ? " at line " + std::to_string(r.line_of(r.get(q->name())))
                                   : std::string(": the default"));
     }
-    r.fail_at(r.get(p->name()), violation + (others.empty() ? "" : others + ")"));
+    r.fail_at(r.get(p->name()), (p->per_light() ? r.label() + " " : std::string()) + violation +
+                                    (others.empty() ? "" : others + ")"));
   }
 }
 
@@ -138,15 +150,14 @@ void read_sun(const Reader& r, Scene& scene) {
   read_table(r, "sun", scene);
 }
 
-// A spot or point light's own filter (evsm2: the light's own moments are built).
-std::optional<Filter> local_filter(const Reader& r) {
-  return r.opt_enum("filter", kLocalFilters);
-}
-
-void read_spot(const Reader& r, SpotLight& spot) {
-  r.check_keys({"position", "direction", "target", "color", "intensity", "outer_angle",
-                "inner_angle", "range", "radius", "shadows", "resolution", "filter"});
-  spot.position = r.required_vec3("position");
+// A [[spot]]: the parameter table's spot rows (read into light i), and `direction` or `target`.
+void read_spot(const Reader& r, Scene& scene, std::size_t i) {
+  r.check_keys(table_keys("spot", {"target"}));
+  SpotLight& spot = scene.spots.emplace_back();
+  // A file that gives only a smaller outer_angle gets it as the inner angle too.
+  const std::optional<double> outer = r.opt_number("outer_angle", param("spot.outer_angle").range);
+  if (outer && !r.has("inner_angle")) spot.inner_degrees = std::min(spot.inner_degrees, float(*outer));
+  read_table(r, "spot", scene, true, i);
   if (r.has("direction") && r.has("target")) {
     r.fail_key("target", "give either 'direction' or 'target', not both");
   }
@@ -161,35 +172,13 @@ void read_spot(const Reader& r, SpotLight& spot) {
   } else {
     r.missing("direction", "target");
   }
-  spot.color = r.vec3("color", spot.color, kNonNegative);
-  spot.intensity = r.numberf("intensity", spot.intensity, kNonNegative);
-  spot.outer_degrees = r.numberf("outer_angle", spot.outer_degrees, open(0.0, 90.0));
-  spot.inner_degrees =
-      r.numberf("inner_angle", std::min(spot.inner_degrees, spot.outer_degrees), kNonNegative);
-  if (spot.inner_degrees > spot.outer_degrees) {
-    r.fail_at(r.get(r.has("inner_angle") ? "inner_angle" : "outer_angle"),
-              r.name("inner_angle") + " = " + format_number(spot.inner_degrees) +
-                  " must not exceed outer_angle = " + format_number(spot.outer_degrees));
-  }
-  spot.range = r.numberf("range", spot.range, kPositive);
-  spot.radius = r.numberf("radius", spot.radius, kNonNegative);
-  spot.shadows = r.boolean("shadows", spot.shadows);
-  spot.resolution = r.uint("resolution", spot.resolution, 16, 16384);
-  spot.filter = local_filter(r);
 }
 
-void read_point(const Reader& r, PointLight& point) {
-  r.check_keys({"position", "color", "intensity", "range", "radius", "shadows", "resolution",
-                "filter", "fit_to_camera"});
-  point.position = r.required_vec3("position");
-  point.color = r.vec3("color", point.color, kNonNegative);
-  point.intensity = r.numberf("intensity", point.intensity, kNonNegative);
-  point.range = r.numberf("range", point.range, kPositive);
-  point.radius = r.numberf("radius", point.radius, kNonNegative);
-  point.shadows = r.boolean("shadows", point.shadows);
-  point.resolution = r.uint("resolution", point.resolution, 16, 8192);
-  point.filter = local_filter(r);
-  point.fit_to_camera = r.boolean("fit_to_camera", point.fit_to_camera);
+// A [[point]]: the parameter table's point rows, read into light i.
+void read_point(const Reader& r, Scene& scene, std::size_t i) {
+  r.check_keys(table_keys("point"));
+  scene.points.emplace_back();
+  read_table(r, "point", scene, true, i);
 }
 
 // [shadows], [contact] and [render] are the parameter table's rows and nothing else.
@@ -248,9 +237,7 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
                                  " spot lights (the renderer shades that many); this one would "
                                  "be ignored");
     }
-    SpotLight spot;
-    read_spot(Reader(ctx, *spots[i], indexed_label("spot", i)), spot);
-    scene.spots.push_back(spot);
+    read_spot(Reader(ctx, *spots[i], indexed_label("spot", i)), scene, i);
   }
   const auto points = table_array(ctx, root, "point");
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -261,9 +248,7 @@ Scene parse_scene(std::string_view toml_text, const std::filesystem::path& name_
                                  " point lights (the renderer shades that many); this one would "
                                  "be ignored");
     }
-    PointLight point;
-    read_point(Reader(ctx, *points[i], indexed_label("point", i)), point);
-    scene.points.push_back(point);
+    read_point(Reader(ctx, *points[i], indexed_label("point", i)), scene, i);
   }
   if (const toml::table* t = single_table(ctx, root, "shadows")) {
     read_plain_table(Reader(ctx, *t, "[shadows]"), "shadows", scene);

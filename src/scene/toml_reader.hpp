@@ -111,17 +111,6 @@ using Names = std::vector<std::pair<std::string_view, E>>;
 
 inline const Names<AlphaMode> kAlphaModes{{"opaque", AlphaMode::opaque},
                                           {"masked", AlphaMode::masked}};
-inline const Names<Filter> kFilters{{"hard", Filter::hard},
-                                    {"pcf", Filter::pcf},
-                                    {"pcss", Filter::pcss},
-                                    {"poisson", Filter::poisson},
-                                    {"evsm2", Filter::evsm2}};
-// A spot or point light's own filter.
-inline const Names<Filter> kLocalFilters{{"hard", Filter::hard},
-                                         {"pcf", Filter::pcf},
-                                         {"pcss", Filter::pcss},
-                                         {"poisson", Filter::poisson},
-                                         {"evsm2", Filter::evsm2}};
 inline const Names<MaskPattern> kMasks{{"none", MaskPattern::none},
                                        {"texture", MaskPattern::texture},
                                        {"stripes", MaskPattern::stripes},

@@ -6,6 +6,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <penumbra/core/error.hpp>
@@ -21,6 +22,16 @@ namespace {
 using ::testing::HasSubstr;
 
 const std::string kBox = "[[object]]\nmesh = \"box\"\n";
+// A sun, a spot and a point light: every row's table is there.
+const std::string kLit =
+    "[sun]\ndirection = [0, -1, 0]\n[[spot]]\nposition = [0, 3, 0]\ndirection = [0, -1, 0]\n"
+    "[[point]]\nposition = [1, 2, 0]\n" +
+    kBox;
+
+// The key as set and get take it: a per-light row's names the first light.
+std::string key_of(const Param& p) {
+  return p.per_light() ? light_key(p, 0) : std::string(p.key);
+}
 
 Scene parse(const std::string& text) {
   return parse_scene(text, "params.toml", ".");
@@ -36,12 +47,13 @@ std::string error_of(const std::string& text) {
 }
 
 std::string set_error(const std::string& key, const std::string& text) {
-  Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
-  const std::string before = get_param(scene, key);
+  Scene scene = parse(kLit);
+  const Scene before = scene;
   try {
     set_param(scene, key, text);
   } catch (const Error& e) {
-    EXPECT_EQ(get_param(scene, key), before) << key << ": a rejected set changed the scene";
+    for (const std::string& k : scene_keys(before, false))
+      EXPECT_EQ(get_param(scene, k), get_param(before, k)) << key << ": a rejected set changed " << k;
     return e.what();
   }
   return "(no error)";
@@ -61,10 +73,10 @@ Sample sample(const Param& p) {
         s << x;
         if (!p.range.contains(x) || s.str() == def) continue;
         // In range and within the row's cross-key checks against the other defaults.
-        Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
-        if (p.check != nullptr) {
+        Scene scene = parse(kLit);
+        if (p.check != nullptr || p.check_at != nullptr) {
           p.set(scene, x);
-          if (!p.check(scene).empty()) continue;
+          if (!(p.check ? p.check(scene) : p.check_at(scene, 0)).empty()) continue;
         }
         return {s.str(), s.str()};
       }
@@ -117,6 +129,12 @@ std::string file_of(const Param& p, const std::string& toml) {
   std::string prefix;
   if (p.table() != "sun") prefix = "[sun]\ndirection = [0, -1, 0]\n";
   const std::string key(p.custom_read ? "direction" : p.name());
+  if (p.per_light()) {  // the light's required keys, then the row's
+    std::string light = "[[" + std::string(p.table()) + "]]\n";
+    if (key != "position") light += p.table() == "spot" ? "position = [0, 3, 0]\n" : "position = [1, 2, 0]\n";
+    if (p.table() == "spot" && key != "direction") light += "direction = [0, -1, 0]\n";
+    return prefix + light + key + " = " + toml + "\n" + kBox;
+  }
   return prefix + "[" + std::string(p.table()) + "]\n" +
          (p.table() == "sun" && key != "direction" ? "direction = [0, -1, 0]\n" : "") + key +
          " = " + toml + "\n" + kBox;
@@ -127,7 +145,9 @@ std::string docs_section(std::string_view table) {
   std::ostringstream text;
   text << in.rdbuf();
   const std::string all = text.str();
-  const std::string head = "## `[" + std::string(table) + "]`";
+  const bool per_light = table == "spot" || table == "point";
+  const std::string head = per_light ? "## `[[" + std::string(table) + "]]`"
+                                     : "## `[" + std::string(table) + "]`";
   const auto start = all.find(head);
   if (start == std::string::npos) return "";
   const auto end = all.find("\n## ", start + head.size());
@@ -156,20 +176,20 @@ TEST(Params, EveryKeyParsesFromAFileAndRoundTripsThroughSetAndGet) {
     const Sample s = sample(p);
     Scene from_file;
     ASSERT_NO_THROW(from_file = parse(file_of(p, s.toml))) << error_of(file_of(p, s.toml));
-    const std::string read = get_param(from_file, p.key);
+    const std::string read = get_param(from_file, key_of(p));
     EXPECT_NE(read, default_text(p)) << "the file's value was not applied";
     // The same value through set, then get, gives the same text; setting what get returned
     // changes nothing.
     if (!p.settable()) {
       Scene scene = parse(kBox);
-      EXPECT_THROW(set_param(scene, p.key, s.text), Error);
+      EXPECT_THROW(set_param(scene, key_of(p), s.text), Error);
       continue;
     }
-    Scene scene = parse("[sun]\ndirection = [0, -1, 0]\n" + kBox);
-    set_param(scene, p.key, s.text);
-    EXPECT_EQ(get_param(scene, p.key), read);
-    set_param(scene, p.key, get_param(scene, p.key));
-    EXPECT_EQ(get_param(scene, p.key), read);
+    Scene scene = parse(kLit);
+    set_param(scene, key_of(p), s.text);
+    EXPECT_EQ(get_param(scene, key_of(p)), read);
+    set_param(scene, key_of(p), get_param(scene, key_of(p)));
+    EXPECT_EQ(get_param(scene, key_of(p)), read);
   }
 }
 
@@ -197,7 +217,7 @@ TEST(Params, OutOfRangeValuesAreRejectedWithFileLineAndKey) {
       std::string set_text = bad;
       if (set_text.front() == '"') set_text = set_text.substr(1, set_text.size() - 2);
       if (set_text.front() == '[') set_text = set_text.substr(1, set_text.size() - 2);
-      EXPECT_THAT(set_error(std::string(p.key), set_text), HasSubstr(std::string(p.key)));
+      EXPECT_THAT(set_error(key_of(p), set_text), HasSubstr(key_of(p)));
     }
     ++checked;
   }
@@ -219,7 +239,7 @@ TEST(Params, NumbersThatDoNotFitAFloatAreRejected) {
       EXPECT_THAT(message, HasSubstr(p.custom_read ? "direction" : std::string(p.name()))) << v;
       if (p.settable()) {
         const std::string set_text = p.type == ParamType::vec3 ? v + ",0,0" : v;
-        EXPECT_THAT(set_error(std::string(p.key), set_text), HasSubstr(std::string(p.key))) << v;
+        EXPECT_THAT(set_error(key_of(p), set_text), HasSubstr(key_of(p))) << v;
       }
     }
     ++checked;
@@ -250,6 +270,34 @@ TEST(Params, CrossKeyChecksHoldInFilesAndSets) {
   Scene no_sun = parse(kBox);
   EXPECT_THROW(set_param(no_sun, "sun.intensity", "2"), Error);
   EXPECT_EQ(get_param(no_sun, "sun.intensity"), "(no sun)");
+}
+
+// [[spot]] and [[point]] keys are rows too, one for every light, named by index.
+TEST(Params, ALightsKeysAreSetAndReadByIndex) {
+  Scene scene = parse(kLit + "[[spot]]\nposition = [2, 3, 0]\ntarget = [0, 0, 0]\n");
+  ASSERT_EQ(scene.spots.size(), 2u);
+  set_param(scene, "spot[1].resolution", "2048");
+  EXPECT_EQ(scene.spots[1].resolution, 2048u);
+  EXPECT_EQ(scene.spots[0].resolution, 1024u);
+  EXPECT_EQ(get_param(scene, "spot[1].resolution"), "2048");
+  set_param(scene, "point[0].filter", "pcss");
+  EXPECT_EQ(scene.points[0].filter, Filter::pcss);
+  set_param(scene, "point[0].filter", "inherit");
+  EXPECT_FALSE(scene.points[0].filter.has_value());
+  EXPECT_THAT(set_error("spot[1].range", "5"), HasSubstr("has 1 spot light: no spot[1]"));
+  EXPECT_EQ(get_param(parse(kLit), "spot[1].range"), "(no spot[1])");
+  EXPECT_THAT(set_error("spot.range", "5"), HasSubstr("name the light, e.g. spot[0].range"));
+  EXPECT_THAT(set_error("spot[x].range", "5"), HasSubstr("expected TABLE[INDEX].NAME"));
+  EXPECT_THAT(set_error("shadows[0].filter", "pcf"), HasSubstr("the key is 'shadows.filter'"));
+  EXPECT_THAT(set_error("spot[0].rnage", "5"), HasSubstr("did you mean 'spot[0].range'"));
+  EXPECT_THAT(set_error("spot[0].inner_angle", "40"),
+              HasSubstr("inner_angle = 40 must not exceed outer_angle = 30"));
+  // Every light's keys, after the singleton tables'.
+  const std::vector<std::string> keys = scene_keys(scene);
+  EXPECT_NE(std::find(keys.begin(), keys.end(), "spot[1].filter"), keys.end());
+  EXPECT_NE(std::find(keys.begin(), keys.end(), "point[0].fit_to_camera"), keys.end());
+  EXPECT_EQ(std::find(keys.begin(), keys.end(), "spot.filter"), keys.end());
+  EXPECT_EQ(std::find(keys.begin(), keys.end(), "point[1].range"), keys.end());
 }
 
 TEST(Params, EveryKeyAppearsInDocsScenesMdAsTheTableGeneratesIt) {

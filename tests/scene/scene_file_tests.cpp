@@ -326,11 +326,15 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
   ASSERT_TRUE(scene.spots[0].filter.has_value());
   EXPECT_EQ(*scene.spots[0].filter, Filter::pcss);
   EXPECT_FALSE(scene.points[0].filter.has_value());  // the [shadows] filter applies
+  // "inherit" says so explicitly (what set writes back for a light without a filter).
+  EXPECT_FALSE(parse("[[point]]\nposition = [1, 2, 0]\nfilter = \"inherit\"\n" + kBox)
+                   .points[0]
+                   .filter.has_value());
   const std::string text = "[[point]]\nposition = [1, 2, 0]\nfilter = \"pfc\"\n" + kBox;
   EXPECT_THAT(error_of(text),
               HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
-                                             "values: hard, pcf, pcss, poisson, evsm2 (did you "
-                                             "mean 'pcf'?)"));
+                                             "values: inherit, hard, pcf, pcss, poisson, evsm2 (did "
+                                             "you mean 'pcf'?)"));
   // A spot or point light's own evsm2 asks for its own moments, and only those.
   const Scene spot_evsm =
       parse("[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox);
@@ -762,8 +766,8 @@ TEST(SceneErrors, ValuesOutOfRange) {
       "inner_angle = 30\n" +
       kBox;
   EXPECT_THAT(error_of(text),
-              HasSubstr(at(text, "inner_angle") + "[[spot]] #1 inner_angle = 30 must not exceed "
-                                                  "outer_angle = 20"));
+              HasSubstr(at(text, "outer_angle") + "[[spot]] #1 inner_angle = 30 must not exceed "
+                                                  "outer_angle = 20 (inner_angle at line 5)"));
   EXPECT_THAT(error_of("[shadows]\nresolution = 8\n" + kBox),
               HasSubstr("resolution = 8 is out of range; must be in [16, 16384]"));
   EXPECT_THAT(error_of("[[material]]\nname = \"m\"\nalbedo = [1.5, 0, 0]\n" + kBox),

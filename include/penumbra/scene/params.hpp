@@ -1,7 +1,8 @@
 #pragma once
 
 // The scene parameters: one row per key of the singleton tables ([camera], [sun], [shadows],
-// [contact], [render]). Each row carries the key as written in scene files and scripts
+// [contact], [render]) and of the per-light tables ([[spot]], [[point]]: one row serves every
+// light of its kind, named by index in set/get: "spot[0].resolution"). Each row carries the key as written in scene files and scripts
 // ("shadows.pcf_radius"), its type, range, choice names, whether a change needs a rebuild of
 // the renderer or only a new frame, its documentation line and an accessor on Scene. The scene
 // file reader, the runtime's set/get, the ImGui panel, penumbra-view's --view/--filter names and
@@ -11,6 +12,7 @@
 // Defaults are not repeated here: they are the member initializers of the structs in scene.hpp,
 // read back from a default Scene (default_text).
 
+#include <cstddef>
 #include <cstdint>
 #include <glm/glm.hpp>
 #include <limits>
@@ -86,24 +88,49 @@ struct Param {
   // as elevation and azimuth); still set/get like any other row.
   bool custom_read = false;
 
-  // nullopt when the table is absent from the scene (a scene without a [sun]).
+  // The scene file must give it (a light's position).
+  bool required = false;
+
+  // nullopt when the table is absent from the scene (a scene without a [sun]). A per-light row's
+  // get and set are those of the first light.
   std::optional<ParamValue> (*get)(const Scene&) = nullptr;
   // Throws penumbra::Error when the table is absent.
   void (*set)(Scene&, const ParamValue&) = nullptr;
   // A constraint across keys, checked after a set; the violation as text, or "".
   std::string (*check)(const Scene&) = nullptr;
+  // A per-light row ([[spot]], [[point]]): the value of light i (nullopt when there is no light
+  // i), set it (throws penumbra::Error when there is none), and its cross-key check.
+  std::optional<ParamValue> (*get_at)(const Scene&, std::size_t) = nullptr;
+  void (*set_at)(Scene&, std::size_t, const ParamValue&) = nullptr;
+  std::string (*check_at)(const Scene&, std::size_t) = nullptr;
 
   std::string_view table() const { return key.substr(0, key.find('.')); }
   std::string_view name() const { return key.substr(key.find('.') + 1); }
   bool settable() const { return apply != ParamApply::file_only; }
+  bool per_light() const { return get_at != nullptr; }
 };
+
+// The lights of a per-light table in the scene ("spot": scene.spots.size()).
+std::size_t light_count(const Scene& scene, std::string_view table);
+// The key of light i's row as set/get take it: "spot[0].resolution".
+std::string light_key(const Param& p, std::size_t light);
+// Every key set/get take for this scene: the singleton rows' keys and, per light, light_key.
+std::vector<std::string> scene_keys(const Scene& scene, bool settable_only = true);
 
 // Every row, in the order of docs/scenes.md.
 const std::vector<Param>& params();
-// nullptr when unknown.
+// nullptr when unknown. A light's key ("spot[1].range") finds its row ("spot.range").
 const Param* find_param(std::string_view key);
 // Throws penumbra::Error "unknown parameter 'KEY' (did you mean '...'?); known: ..." .
 const Param& param(std::string_view key);
+// A key as set/get take it: its row and, for a per-light row, the light's index. Throws as
+// param() does, and for a per-light row without an index ("spot.range": "name the light:
+// spot[0].range").
+struct KeyRef {
+  const Param* param = nullptr;
+  std::size_t light = 0;
+};
+KeyRef parse_key(std::string_view key);
 // The rows of one table ("shadows"), in order.
 std::vector<const Param*> params_of(std::string_view table);
 
@@ -122,10 +149,13 @@ std::string markdown_row(const Param& p);
 std::string markdown_rows(std::string_view table);
 // Every row as a JSON array: key, type, apply, range (lo, hi: null when open-ended; lo_open,
 // hi_open), choices, doc, default (as docs/scenes.md writes it) and, with a scene, its value
-// as get shows it (null where its table is absent). penumbra-view --list-params prints it.
+// as get shows it (null where its table is absent); a per-light row ([[spot]], [[point]]) has
+// per_light: true, its value is the first light's and values lists every light's (spot[i]).
+// penumbra-view --list-params prints it.
 std::string params_json(const Scene* scene);
 
-// get/set by key and text, with the row's checks; set leaves the scene unchanged on error.
+// get/set by key and text ("shadows.pcf_radius", "spot[0].resolution"), with the row's checks;
+// set leaves the scene unchanged on error, and names the light that is not there.
 std::string get_param(const Scene& scene, std::string_view key);
 void set_param(Scene& scene, std::string_view key, std::string_view text);
 
@@ -138,7 +168,8 @@ void set_params(Scene& scene, const std::vector<std::pair<std::string, std::stri
 // Why a row does nothing for this scene as it is now, or "" when it matters: "no sun", "no
 // shadowed light", "no light uses pcss", "layout is cascades", "temporal is off", "contact
 // steps is 0". The panel lists such rows apart, so it shows first what the scene models.
-std::string unused_reason(const Scene& scene, const Param& p);
+// For a per-light row, of light `light`: "the light casts no shadows", "its filter is pcf".
+std::string unused_reason(const Scene& scene, const Param& p, std::size_t light = 0);
 
 // The constraints of [camera] across keys ("" when they hold): target != position, up not
 // parallel to the view, far > near. The scene file and set_param both use it.
