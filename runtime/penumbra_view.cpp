@@ -63,6 +63,7 @@ struct Options {
   std::string truth_flicker;  // --truth-flicker PATH: and the flicker along that camera path
   bool exit_after_frames = false;  // window: close after --frames presented frames
   bool ui = true;                  // window: the Dear ImGui parameter panel
+  bool ui_rows = false;            // window: print the panel's rows (--ui-rows)
   uint32_t debounce_ms = uint32_t(penumbra::runtime::kDefaultDebounce.count());
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
@@ -126,7 +127,7 @@ void usage() {
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
       "                     [--list-params]\n"
       "                     [--shader-dir DIR] [--watch] [--truth] [--debounce-ms N]\n"
-      "                     [--exit-after-frames] [--no-ui]\n"
+      "                     [--exit-after-frames] [--no-ui] [--ui-rows]\n"
       "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
       "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
       "  --headless    render offscreen and write PNGs (the default when there is no display)\n"
@@ -135,6 +136,7 @@ void usage() {
       "                V / F cycle the view / filter, R resets the camera, Esc closes\n"
       "  --exit-after-frames  window mode: close after --frames N presented frames\n"
       "  --no-ui       window mode without the parameter panel (Dear ImGui)\n"
+      "  --ui-rows     window mode: print the panel's rows, group by group, when they change\n"
       "  --out         where PNGs and timings go (default out/<scene name>; an existing\n"
       "                directory is reused and its files of the same names replaced)\n"
       "  --view        %s (default: lit, then every debug view)\n"
@@ -221,6 +223,8 @@ Options parse(int argc, char** argv) {
     }
     else if (a == "--exit-after-frames")
       o.exit_after_frames = true;
+    else if (a == "--ui-rows")
+      o.ui_rows = true;
     else if (a == "--no-ui")
       o.ui = false;
     else if (a == "--debounce-ms")
@@ -346,7 +350,7 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
 
 #ifdef PENUMBRA_HAS_IMGUI
   std::unique_ptr<penumbra::runtime::Ui> ui;
-  if (o.ui) ui = std::make_unique<penumbra::runtime::Ui>(ctx, window);
+  if (o.ui) ui = std::make_unique<penumbra::runtime::Ui>(ctx, window, o.ui_rows);
   std::printf("[window] panel: %s\n",
               ui ? penumbra::runtime::ui_version().c_str() : "off (--no-ui)");
   const auto ui_mouse = [&] { return ui && ui->wants_mouse(); };

@@ -13,6 +13,7 @@
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/scene/params.hpp>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace penumbra::runtime {
@@ -22,9 +23,9 @@ void check_vk(VkResult r) {
   if (r != VK_SUCCESS) std::fprintf(stderr, "penumbra-view: ImGui Vulkan call: VkResult %d\n", r);
 }
 
-float as_float(Session& s, const std::string& key) {
+float as_float(const std::string& text) {
   try {
-    return std::stof(s.get(key));
+    return std::stof(text);
   } catch (const std::exception&) {
     return 0.0f;
   }
@@ -35,12 +36,13 @@ bool rebuilds(const scene::Param& p) {
   return p.apply == scene::ParamApply::rebuild;
 }
 
-// "pcf_radius##shadows.pcf_radius": the name shown, the key as ImGui's id.
-std::string label_of(const scene::Param& p) {
+// "pcf radius##shadows.pcf_radius": the name shown, the key (a light's: spot[0].range) as
+// ImGui's id.
+std::string label_of(const scene::Param& p, const std::string& key) {
   std::string label(p.name());
   for (char& c : label)
     if (c == '_') c = ' ';
-  return label + "##" + std::string(p.key);
+  return label + "##" + key;
 }
 
 }  // namespace
@@ -49,7 +51,7 @@ std::string ui_version() {
   return std::string("Dear ImGui ") + IMGUI_VERSION;
 }
 
-Ui::Ui(gpu::Context& ctx, Window& window) : ctx_(ctx) {
+Ui::Ui(gpu::Context& ctx, Window& window, bool log_rows) : ctx_(ctx), log_rows_(log_rows) {
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
   ImGui::GetIO().IniFilename = nullptr;  // no imgui.ini in the working directory
@@ -135,11 +137,13 @@ void Ui::panel(Session& session) {
 
     // One widget per settable row of the parameter table (scene/params.hpp): a combo for a
     // choice, a checkbox for a bool, a slider over the row's widget range (or its closed range)
-    // for numbers; vectors only in "every parameter" below.
-    auto widget = [&](const scene::Param& p) {
-      const std::string key(p.key);
-      const std::string label = label_of(p);
+    // for numbers, three drag fields for a vector. `key` is the row's key, or a light's
+    // ("spot[0].resolution"); the tooltip is the row's docs line.
+    std::vector<std::string> shown;  // this frame's rows, group by group
+    auto widget = [&](const scene::Param& p, const std::string& key) {
+      const std::string label = label_of(p, key);
       const std::string now = session.get(key);
+      bool drawn = true;
       switch (p.type) {
         case scene::ParamType::choice:
           if (ImGui::BeginCombo(label.c_str(), now.c_str())) {
@@ -157,7 +161,7 @@ void Ui::panel(Session& session) {
           break;
         }
         case scene::ParamType::integer: {
-          int v = static_cast<int>(as_float(session, key));
+          int v = static_cast<int>(as_float(now));
           const bool moved = ImGui::SliderInt(label.c_str(), &v, int(p.range.lo), int(p.range.hi));
           if (rebuilds(p) ? ImGui::IsItemDeactivatedAfterEdit() : moved)
             set(session, key, std::to_string(v));
@@ -165,8 +169,11 @@ void Ui::panel(Session& session) {
         }
         case scene::ParamType::number: {
           const scene::ParamRange r = p.widget.lo < p.widget.hi ? p.widget : p.range;
-          if (!std::isfinite(r.lo) || !std::isfinite(r.hi)) break;
-          float v = as_float(session, key);
+          if (!std::isfinite(r.lo) || !std::isfinite(r.hi)) {
+            drawn = false;
+            break;
+          }
+          float v = as_float(now);
           const bool moved =
               ImGui::SliderFloat(label.c_str(), &v, float(r.lo), float(r.hi), "%.4g");
           if (rebuilds(p) ? ImGui::IsItemDeactivatedAfterEdit() : moved) {
@@ -176,39 +183,90 @@ void Ui::panel(Session& session) {
           }
           break;
         }
-        default:
+        case scene::ParamType::vec3:
+        case scene::ParamType::direction: {
+          float v[3] = {0.0f, 0.0f, 0.0f};
+          std::sscanf(now.c_str(), "%f,%f,%f", &v[0], &v[1], &v[2]);
+          const bool moved = ImGui::DragFloat3(label.c_str(), v, 0.02f, 0.0f, 0.0f, "%.3g");
+          if (rebuilds(p) ? ImGui::IsItemDeactivatedAfterEdit() : moved) {
+            char text[128];
+            std::snprintf(text, sizeof text, "%.9g,%.9g,%.9g", double(v[0]), double(v[1]),
+                          double(v[2]));
+            set(session, key, text);
+          }
           break;
+        }
       }
+      if (!drawn) return;
+      if (ImGui::IsItemHovered()) ImGui::SetTooltip("%s", std::string(p.doc).c_str());
+      shown.back() += " " + key;
     };
-    // The rows this scene uses, by table; the others apart, each with the reason it does
-    // nothing here (scene::unused_reason), so the panel shows first what the scene models.
-    // Labels get 45% of the width, so the longest ("pcss min filter texels") are not cut.
+    // What the scene models, grouped by light: the sun (its own rows and its map's), each spot
+    // and point light (its own rows), then the rows every shadowed light shares, the contact
+    // pass, the image and the camera. Rows that do nothing for this scene (scene::unused_reason)
+    // are listed apart, each with the reason.
     ImGui::PushItemWidth(ImGui::GetWindowWidth() * 0.5f);
-    std::vector<std::pair<const scene::Param*, std::string>> unused;
-    for (const char* table : {"render", "shadows", "sun", "contact", "camera"}) {
-      std::vector<const scene::Param*> used;
-      for (const scene::Param* p : scene::params_of(table)) {
-        if (!p->settable()) continue;
-        std::string why = scene::unused_reason(session.scene(), *p);
-        if (why.empty())
-          used.push_back(p);
-        else
-          unused.emplace_back(p, std::move(why));
+    const scene::Scene& sc = session.scene();
+    std::vector<std::tuple<const scene::Param*, std::string, std::string>> unused;
+    struct Group {
+      std::string title;
+      std::vector<std::pair<const scene::Param*, std::string>> rows;
+      bool open = true;
+    };
+    std::vector<Group> groups;
+    const auto add = [&](Group& g, const scene::Param* p, const std::string& key,
+                         std::size_t light) {
+      if (!p->settable()) return;
+      std::string why = scene::unused_reason(sc, *p, light);
+      if (why.empty())
+        g.rows.emplace_back(p, key);
+      else
+        unused.emplace_back(p, key, std::move(why));
+    };
+    Group sun{"sun"}, shared{"shadows (every light)"};
+    for (const scene::Param* p : scene::params_of("sun")) add(sun, p, std::string(p->key), 0);
+    for (const scene::Param* p : scene::params_of("shadows"))
+      add(scene::sun_map_row(*p) ? sun : shared, p, std::string(p->key), 0);
+    groups.push_back(std::move(sun));
+    for (const char* table : {"spot", "point"}) {
+      for (std::size_t i = 0; i < scene::light_count(sc, table); ++i) {
+        Group g{std::string(table) + "[" + std::to_string(i) + "]"};
+        for (const scene::Param* p : scene::params_of(table)) add(g, p, scene::light_key(*p, i), i);
+        groups.push_back(std::move(g));
       }
-      if (used.empty()) continue;
-      const bool open = std::string_view(table) != "camera";
-      if (!ImGui::CollapsingHeader(table, open ? ImGuiTreeNodeFlags_DefaultOpen : 0)) continue;
-      for (const scene::Param* p : used) widget(*p);
+    }
+    groups.push_back(std::move(shared));
+    for (const char* table : {"contact", "render", "camera"}) {
+      Group g{table, {}, std::string_view(table) != "camera"};
+      for (const scene::Param* p : scene::params_of(table)) add(g, p, std::string(p->key), 0);
+      groups.push_back(std::move(g));
+    }
+    for (const Group& g : groups) {
+      if (g.rows.empty()) continue;
+      shown.push_back(g.title + ":");
+      if (!ImGui::CollapsingHeader(g.title.c_str(), g.open ? ImGuiTreeNodeFlags_DefaultOpen : 0)) {
+        shown.back() += " (closed: " + std::to_string(g.rows.size()) + " rows)";
+        continue;
+      }
+      for (const auto& [p, key] : g.rows) widget(*p, key);
     }
     const std::string apart = "not used by this scene (" + std::to_string(unused.size()) + ")";
+    if (!unused.empty()) shown.push_back(apart + ":");
     if (!unused.empty() && ImGui::CollapsingHeader(apart.c_str())) {
-      for (const auto& [p, why] : unused) {
-        widget(*p);
+      for (const auto& [p, key, why] : unused) {
+        widget(*p, key);
         ImGui::SameLine();
         ImGui::TextDisabled("(%s)", why.c_str());
       }
     }
     ImGui::PopItemWidth();
+    // The rows shown, once and whenever they change (a rebuilt scene, a header opened).
+    if (shown != shown_) {
+      shown_ = shown;
+      if (log_rows_)
+        for (const std::string& line : shown_) std::printf("[ui] rows %s\n", line.c_str());
+      std::fflush(stdout);
+    }
     if (ImGui::CollapsingHeader("every parameter (Enter applies)")) {
       for (const std::string& key : session.keys()) {
         char text[128];

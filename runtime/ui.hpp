@@ -11,6 +11,7 @@
 #include <memory>
 #include <penumbra/gpu/context.hpp>
 #include <string>
+#include <vector>
 
 #include "session.hpp"
 #include "window.hpp"
@@ -19,14 +20,18 @@ namespace penumbra::runtime {
 
 class Ui {
  public:
-  Ui(gpu::Context& ctx, Window& window);
+  // log_rows: print the panel's rows ("[ui] rows sun: sun.direction ...") on the first frame
+  // and whenever they change (penumbra-view --ui-rows; the window tests read them).
+  Ui(gpu::Context& ctx, Window& window, bool log_rows = false);
   ~Ui();
   Ui(const Ui&) = delete;
   Ui& operator=(const Ui&) = delete;
 
   void new_frame();
-  // Builds the panel: filter / view / fit combos, sliders for the shadow and contact parameters,
-  // every parameter as text, the per-pass GPU timings and the reload error.
+  // Builds the panel: the rows of what the scene models, grouped by light (the sun with its
+  // map's rows, each spot and point light, the rows every light shares, contact, render,
+  // camera), each with the row's docs line as its tooltip; the rows that do nothing here apart
+  // with the reason; every key as text; the per-pass GPU timings and the reload error.
   void panel(Session& session);
   // Records the panel's draws (inside Window's overlay render pass).
   void record(VkCommandBuffer cmd);
@@ -42,6 +47,8 @@ class Ui {
   gpu::Context& ctx_;
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   std::string last_error_;
+  bool log_rows_ = false;
+  std::vector<std::string> shown_;  // the rows the panel showed last, group by group
   uint64_t changes_ = 0;
   bool rendered_ = false;
 };

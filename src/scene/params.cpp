@@ -303,13 +303,12 @@ std::vector<Param> make_params() {
        .at = light_field<&S::spots, &SpotLight::intensity>()},
       {.key = "spot.outer_angle", .type = T::number, .range = open(0.0, 90.0), .apply = A::frame,
        .doc = "degrees, half-angle of the cone", .widget = slider(1.0, 89.0),
-       .at = light_field<&S::spots, &SpotLight::outer_degrees>(),
-       .check_at = spot_angle_violation},
+       .at = light_field<&S::spots, &SpotLight::outer_degrees>()},
       {.key = "spot.inner_angle", .type = T::number, .range = kNonNegative, .apply = A::frame,
        .doc = "degrees, full intensity inside; at most `outer_angle` (a file that gives only a "
               "smaller `outer_angle` gets that)",
        .widget = slider(0.0, 89.0), .at = light_field<&S::spots, &SpotLight::inner_degrees>(),
-       .check_at = spot_angle_violation},
+       .check_at = spot_angle_violation},  // outer_angle's too: the file's error is at inner's line
       {.key = "spot.range", .type = T::number, .range = kPositive, .apply = A::frame,
        .doc = "metres; the light ends here (smoothly), and so does its shadow map",
        .widget = slider(0.5, 50.0), .at = light_field<&S::spots, &SpotLight::range>()},
@@ -990,9 +989,11 @@ void set_param(Scene& scene, std::string_view key, std::string_view text) {
   } catch (const Error& e) {
     throw Error(std::string(key) + ": " + e.what());
   }
-  const std::string violation = p.check     ? p.check(next)
-                                : p.check_at ? p.check_at(next, light)
-                                             : std::string();
+  // A light's checks are its table's (inner_angle's holds outer_angle too).
+  std::string violation = p.check ? p.check(next) : std::string();
+  if (p.per_light())
+    for (const Param* q : params_of(p.table()))
+      if (violation.empty() && q->check_at) violation = q->check_at(next, light);
   if (!violation.empty())
     throw Error(std::string(key) + " " + std::string(text) + ": " + violation);
   apply(scene);
@@ -1008,6 +1009,16 @@ std::string camera_violation(const Scene& scene) {
     return "camera.far = " + number_text(c.far) +
            " must be greater than near = " + number_text(c.near);
   return "";
+}
+
+bool sun_map_row(const Param& p) {
+  // frame_pack.cpp's pack_sun: the sun's map alone (max_distance also fits point lights to
+  // the camera, reverse_z every map's depth).
+  static const std::vector<std::string_view> sun_rows{
+      "cascades",       "lambda",         "resolution",     "fit",        "selection", "layout",
+      "clipmap_levels", "clipmap_extent", "snap_to_texels", "blend_band", "fade_band"};
+  return p.table() == "shadows" &&
+         std::find(sun_rows.begin(), sun_rows.end(), p.name()) != sun_rows.end();
 }
 
 std::string unused_reason(const Scene& scene, const Param& p, std::size_t light) {
@@ -1039,12 +1050,7 @@ std::string unused_reason(const Scene& scene, const Param& p, std::size_t light)
     return std::find(filters.begin(), filters.end(), f) != filters.end();
   };
   const auto none_uses = [](std::string_view what) { return "no light uses " + std::string(what); };
-  // frame_pack.cpp's pack_sun: the sun's map alone (max_distance also fits point lights to
-  // the camera, reverse_z every map's depth).
-  static const std::vector<std::string_view> sun_rows{
-      "cascades",       "lambda",         "resolution",     "fit",        "selection", "layout",
-      "clipmap_levels", "clipmap_extent", "snap_to_texels", "blend_band", "fade_band"};
-  const bool sun_row = std::find(sun_rows.begin(), sun_rows.end(), name) != sun_rows.end();
+  const bool sun_row = sun_map_row(p);
   if (sun_row && !sun) return scene.sun ? "the sun casts no shadows" : "no sun";
   if (name == "filter" && !sun &&
       std::none_of(scene.spots.begin(), scene.spots.end(),

@@ -14,6 +14,8 @@
 #include <chrono>
 #include <cstdio>
 #include <string>
+#include <sstream>
+#include <map>
 #include <thread>
 
 #include "temp_tree.hpp"
@@ -109,6 +111,69 @@ TEST(WindowMode, PresentsFramesUnderXvfbWithoutValidationMessages) {
     EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
     EXPECT_THAT(r.output, Not(HasSubstr("rendering headless")));
   }
+}
+
+// The panel shows what each shipped scene models, grouped by light (penumbra-view --ui-rows
+// prints the rows drawn, group by group): no sun rows without a sun, the spot and point lights'
+// own rows, PCSS rows only where a light uses PCSS, clipmap rows only with the clipmap layout.
+TEST(WindowMode, ThePanelShowsTheRowsEachShippedSceneModels) {
+  Xvfb x;
+  ASSERT_TRUE(x.error().empty()) << x.error();
+  const auto rows = [&](const std::string& args) {
+    const Result r = shell("env DISPLAY=" + x.display() + " PENUMBRA_VALIDATION=1 " +
+                           PENUMBRA_VIEW_EXE + " --frames 1 --exit-after-frames --size 96x64 " +
+                           "--ui-rows " + args);
+    EXPECT_EQ(r.status, 0) << r.output;
+    EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
+    std::map<std::string, std::string> groups;  // "sun" -> " sun.direction sun.color ..."
+    std::istringstream lines(r.output);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("[ui] rows ", 0) != 0) continue;
+      const auto colon = line.find(':');
+      groups[line.substr(10, colon - 10)] = line.substr(colon + 1) + " ";
+    }
+    return groups;
+  };
+  const auto has = [](const std::map<std::string, std::string>& g, const std::string& group,
+                      const std::string& key) {
+    const auto it = g.find(group);
+    return it != g.end() && it->second.find(" " + key + " ") != std::string::npos;
+  };
+  const auto anywhere = [](const std::map<std::string, std::string>& g, const std::string& key) {
+    for (const auto& [name, keys] : g)
+      if (name.rfind("not used", 0) != 0 && keys.find(" " + key + " ") != std::string::npos)
+        return true;
+    return false;
+  };
+
+  const auto indoor = rows("--scene indoor");  // a spot and a point light, no sun
+  EXPECT_EQ(indoor.count("sun"), 0u);
+  EXPECT_TRUE(has(indoor, "spot[0]", "spot[0].resolution"));
+  EXPECT_TRUE(has(indoor, "spot[0]", "spot[0].filter"));
+  EXPECT_TRUE(has(indoor, "point[0]", "point[0].radius"));
+  EXPECT_FALSE(anywhere(indoor, "shadows.cascades"));
+  EXPECT_FALSE(anywhere(indoor, "sun.direction"));
+
+  const auto space = rows("--scene space");  // one fitted point light
+  EXPECT_EQ(space.count("sun"), 0u);
+  EXPECT_EQ(space.count("spot[0]"), 0u);
+  EXPECT_TRUE(has(space, "point[0]", "point[0].fit_to_camera"));
+
+  const auto def = rows("--scene default");  // the sun's cascades
+  EXPECT_TRUE(has(def, "sun", "sun.direction"));
+  EXPECT_TRUE(has(def, "sun", "shadows.cascades"));
+  EXPECT_EQ(def.count("point[0]"), 0u);
+  EXPECT_FALSE(anywhere(def, "shadows.clipmap_levels"));
+  EXPECT_FALSE(anywhere(def, "shadows.pcss_search_texels"));  // no light uses PCSS
+  // The rows follow the scene: the clipmap layout's rows replace the cascades'; PCSS's appear
+  // with a light that uses it.
+  const auto clip = rows("--scene default --set shadows.layout=clipmap --set shadows.filter=pcss");
+  EXPECT_TRUE(has(clip, "sun", "shadows.clipmap_levels"));
+  EXPECT_FALSE(anywhere(clip, "shadows.cascades"));
+  EXPECT_TRUE(anywhere(clip, "shadows.pcss_search_texels"));
+
+  const auto grazing = rows("--scene grazing");
+  EXPECT_TRUE(has(grazing, "sun", "shadows.resolution"));
 }
 
 TEST(WindowMode, ShowsTheReloadErrorInTheTitleUntilItIsFixed) {

@@ -74,10 +74,11 @@ Sample sample(const Param& p) {
         if (!p.range.contains(x) || s.str() == def) continue;
         // In range and within the row's cross-key checks against the other defaults.
         Scene scene = parse(kLit);
-        if (p.check != nullptr || p.check_at != nullptr) {
-          p.set(scene, x);
-          if (!(p.check ? p.check(scene) : p.check_at(scene, 0)).empty()) continue;
-        }
+        p.set(scene, x);
+        std::string violation = p.check ? p.check(scene) : std::string();
+        for (const Param* q : params_of(p.table()))  // a light's checks are its table's
+          if (violation.empty() && q->check_at) violation = q->check_at(scene, 0);
+        if (!violation.empty()) continue;
         return {s.str(), s.str()};
       }
       break;
@@ -292,6 +293,8 @@ TEST(Params, ALightsKeysAreSetAndReadByIndex) {
   EXPECT_THAT(set_error("spot[0].rnage", "5"), HasSubstr("did you mean 'spot[0].range'"));
   EXPECT_THAT(set_error("spot[0].inner_angle", "40"),
               HasSubstr("inner_angle = 40 must not exceed outer_angle = 30"));
+  EXPECT_THAT(set_error("spot[0].outer_angle", "10"),
+              HasSubstr("inner_angle = 25 must not exceed outer_angle = 10"));
   // Every light's keys, after the singleton tables'.
   const std::vector<std::string> keys = scene_keys(scene);
   EXPECT_NE(std::find(keys.begin(), keys.end(), "spot[1].filter"), keys.end());

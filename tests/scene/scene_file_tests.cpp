@@ -766,8 +766,8 @@ TEST(SceneErrors, ValuesOutOfRange) {
       "inner_angle = 30\n" +
       kBox;
   EXPECT_THAT(error_of(text),
-              HasSubstr(at(text, "outer_angle") + "[[spot]] #1 inner_angle = 30 must not exceed "
-                                                  "outer_angle = 20 (inner_angle at line 5)"));
+              HasSubstr(at(text, "inner_angle") + "[[spot]] #1 inner_angle = 30 must not exceed "
+                                                  "outer_angle = 20"));
   EXPECT_THAT(error_of("[shadows]\nresolution = 8\n" + kBox),
               HasSubstr("resolution = 8 is out of range; must be in [16, 16384]"));
   EXPECT_THAT(error_of("[[material]]\nname = \"m\"\nalbedo = [1.5, 0, 0]\n" + kBox),

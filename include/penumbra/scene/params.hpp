@@ -99,7 +99,8 @@ struct Param {
   // A constraint across keys, checked after a set; the violation as text, or "".
   std::string (*check)(const Scene&) = nullptr;
   // A per-light row ([[spot]], [[point]]): the value of light i (nullopt when there is no light
-  // i), set it (throws penumbra::Error when there is none), and its cross-key check.
+  // i), set it (throws penumbra::Error when there is none), and a cross-key check (a set of any
+  // row of the table runs every row's check_at; a file's violation is at this row's line).
   std::optional<ParamValue> (*get_at)(const Scene&, std::size_t) = nullptr;
   void (*set_at)(Scene&, std::size_t, const ParamValue&) = nullptr;
   std::string (*check_at)(const Scene&, std::size_t) = nullptr;
@@ -168,6 +169,9 @@ void set_params(Scene& scene, const std::vector<std::pair<std::string, std::stri
 // Why a row does nothing for this scene as it is now, or "" when it matters: "no sun", "no
 // shadowed light", "no light uses pcss", "layout is cascades", "temporal is off", "contact
 // steps is 0". The panel lists such rows apart, so it shows first what the scene models.
+// A [shadows] row of the sun's map alone (cascades, resolution, layout, ...): the panel shows it
+// with the sun.
+bool sun_map_row(const Param& p);
 // For a per-light row, of light `light`: "the light casts no shadows", "its filter is pcf".
 std::string unused_reason(const Scene& scene, const Param& p, std::size_t light = 0);
 
