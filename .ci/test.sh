@@ -64,17 +64,37 @@ if cmake --install "$PENUMBRA_BUILD" --prefix "$example/prefix" > "$example/inst
     status=1
   fi
   # The installed viewer from a moved prefix (issue 36): it finds its scenes and shaders beside
-  # its bin/, and compiles a user's own copy of the shader tree given with --shader-dir.
+  # its bin/ and watches a user's overlay holding only penumbra/pcf.glsl (--shader-dir: the rest
+  # from the installed library); an edit there is reloaded.
   mv "$example/prefix" "$example/moved"
-  cp -r "$example/moved/share/penumbra/shaders" "$example/my-shaders"
-  if ! (cd / && env -u PENUMBRA_SHADER_DIR -u PENUMBRA_SHADER_PATH PENUMBRA_VALIDATION=1 \
-          ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} "$example/moved/bin/penumbra-view" \
-          --headless --scene default --frames 1 --size 96x54 --view lit \
-          --shader-dir "$example/my-shaders" --out "$example/view" > "$example/view.log" 2>&1) ||
+  mkdir -p "$example/overlay/penumbra"
+  cp "$example/moved/share/penumbra/shaders/penumbra/pcf.glsl" "$example/overlay/penumbra/"
+  (cd / && exec env -u PENUMBRA_SHADER_DIR -u PENUMBRA_SHADER_PATH PENUMBRA_VALIDATION=1 \
+     ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=0} "$example/moved/bin/penumbra-view" \
+     --headless --watch --scene default --set shadows.filter=pcf --frames 1 --size 96x54 \
+     --view lit --shader-dir "$example/overlay" --out "$example/view") > "$example/view.log" 2>&1 &
+  viewer=$!
+  seen() {  # waits up to 120 s for a line of the viewer's log
+    for _ in $(seq 600); do
+      grep -q -- "$1" "$example/view.log" && return 0
+      kill -0 "$viewer" 2>/dev/null || return 1
+      sleep 0.2
+    done
+    return 1
+  }
+  reloaded=0
+  if seen "^\[watch\] watching $example/overlay over $example/moved/share/penumbra/shaders"; then
+    sed -i 's/return clamp(radius, 0, kPcfMaxRadius);/return clamp(radius + 1, 0, kPcfMaxRadius);/' \
+      "$example/overlay/penumbra/pcf.glsl"
+    seen "^\[reload\] rebuilt: shadow-resolve" && reloaded=1
+  fi
+  kill -INT "$viewer" 2>/dev/null
+  wait "$viewer" || reloaded=0
+  if ((reloaded == 0)) ||
      ! grep -q "$example/moved/share/penumbra/scenes/default.toml" "$example/view.log" ||
-     [[ ! -s "$example/view/lit.png" ]]; then
+     ! grep -q "validation:  0 messages" "$example/view.log" || [[ ! -s "$example/view/lit.png" ]]; then
     cat "$example/view.log"
-    echo "the installed penumbra-view did not render from a moved prefix" >&2
+    echo "the installed penumbra-view did not render and reload an overlay from a moved prefix" >&2
     status=1
   fi
   # And the installed bench and tuner, from a folder outside the tree: they find their Python

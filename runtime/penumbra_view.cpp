@@ -23,6 +23,7 @@
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <penumbra/shader/compiler.hpp>
+#include <span>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -149,9 +150,11 @@ void usage() {
       "                installed shaders/): files in DIR win, the rest are read from the library\n"
       "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
       "                view's PNG rewritten after each (Ctrl-C stops)\n"
-      "  --truth       with --watch (headless): after every reload, the GPU ms and the error\n"
-      "                against the ray-traced truth (per light: mean |dV|, false light and\n"
-      "                shadow, acne, contact gap) before -> after; the truth is traced once\n"
+      "  --truth       after every reload, the GPU ms and the error against the ray-traced\n"
+      "                truth (per light: mean |dV|, false light and shadow, acne, contact gap)\n"
+      "                before -> after, and each light's error heat map; the truth is traced\n"
+      "                once. Window: a table of the last saves in the panel, T shows the heat\n"
+      "                maps; headless: needs --watch, prints them and writes truth-error*.png\n"
       "  --truth-flicker PATH  --truth, and the flicker and error along a camera path\n"
       "                (translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg)\n"
       "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
@@ -256,9 +259,10 @@ Options parse(int argc, char** argv) {
     throw Error(
         "--set does not combine with --script or --command (use the command 'set KEY "
         "VALUE' there)");
-  if (o.truth && (!o.watch || !o.scripts.empty()))
-    throw Error("--truth reports what each reload did: it needs --watch (and no --script)");
-  if (o.truth) o.headless = true;  // the window's table of deltas is not built yet
+  if (o.truth && !o.scripts.empty())
+    throw Error("--truth reports what each reload did: it does not combine with --script");
+  if (o.truth && o.headless && !o.watch)
+    throw Error("--truth reports what each reload did: headless, it needs --watch");
   return o;
 }
 
@@ -332,6 +336,44 @@ void cycle(penumbra::runtime::Session& session, const std::string& key,
   std::fflush(stdout);
 }
 
+// --truth: the reference measurement's options (failure modes, the reference cache).
+penumbra::reference::MeasureOptions truth_options() {
+  penumbra::reference::MeasureOptions options;
+  options.failure_modes = true;
+  options.cache_dir = penumbra::reference::default_cache_dir();
+  return options;
+}
+
+void print_lines(const std::vector<std::string>& lines) {
+  for (const auto& l : lines) std::printf("%s\n", l.c_str());
+  std::fflush(stdout);
+}
+
+// Each light's error heat map of a --truth snapshot, as truth-error.png (one light) or
+// truth-error-<light>.png, written atomically into out.
+void write_heat_maps(const fs::path& out, const penumbra::runtime::TruthSnapshot& s) {
+  for (std::size_t i = 0; i < s.lights.size() && i < s.heat.size(); ++i) {
+    const fs::path png =
+        out / (s.lights.size() == 1 ? std::string("truth-error.png")
+                                    : "truth-error-" + s.lights[i].name + ".png");
+    penumbra::render::write_png(png, s.width, s.height, s.heat[i]);
+    std::printf("[truth] error heat map: %s\n", png.string().c_str());
+  }
+  std::fflush(stdout);
+}
+
+// "pcf.glsl", "pcf.glsl, noise.glsl": what a batch of reloads changed, for the panel's table.
+std::string changed_files(const std::vector<penumbra::runtime::ReloadRecord>& records,
+                          std::size_t from) {
+  std::string out;
+  for (std::size_t i = from; i < records.size(); ++i)
+    for (const auto& f : records[i].changed) {
+      const std::string name = f.filename().string();
+      if (out.find(name) == std::string::npos) out += (out.empty() ? "" : ", ") + name;
+    }
+  return out.empty() ? "(reload)" : out;
+}
+
 // Window mode: render and present every frame; the reload loop runs between frames and its
 // error shows in the title.
 int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, const Options& o,
@@ -340,10 +382,12 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
   penumbra::runtime::Session session(ctx, scene, session_options(o, true));
   if (!o.view.empty()) session.set("render.view", o.view);
   std::printf("\nbuilt for this scene:\n%s", session.renderer().built().to_string().c_str());
+  std::string over;
+  for (const auto& lib : session.library_dirs()) over += " over " + lib.string();
   std::printf(
-      "\n[window] %ux%u, watching %s; left drag orbits, right drag looks, WASD/QE fly, scroll "
-      "zooms, V/F cycle view/filter, R resets the camera, Esc closes\n",
-      window.width(), window.height(), session.shader_dir().string().c_str());
+      "\n[window] %ux%u, watching %s%s; left drag orbits, right drag looks, WASD/QE fly, scroll "
+      "zooms, V/F cycle view/filter, R resets the camera, T the truth's heat maps, Esc closes\n",
+      window.width(), window.height(), session.shader_dir().string().c_str(), over.c_str());
   std::fflush(stdout);
   std::signal(SIGINT, on_signal);
   std::signal(SIGTERM, on_signal);
@@ -360,6 +404,33 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
   const auto ui_mouse = [] { return false; };
   const auto ui_keyboard = [] { return false; };
 #endif
+  // --truth: the baseline now; after every reload that rebuilt something, what it did (the
+  // panel's table of saves and the log), and each light's error heat map to show (T).
+  const penumbra::reference::MeasureOptions measure = truth_options();
+  std::optional<penumbra::reference::CameraPath> flicker_path;
+  if (!o.truth_flicker.empty()) flicker_path = penumbra::reference::find_path(o.truth_flicker);
+  std::optional<penumbra::runtime::TruthSnapshot> truth, truth_start;
+  if (o.truth) {
+    std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
+                measure.cache_dir->string().c_str());
+    std::fflush(stdout);
+    truth = penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
+    if (truth->lights.empty()) {
+      std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
+                  scene.name.c_str());
+      truth.reset();
+    } else {
+      print_lines(penumbra::runtime::truth_lines(*truth));
+      truth_start = truth;
+#ifdef PENUMBRA_HAS_IMGUI
+      if (ui) ui->truth_baseline(*truth);
+#endif
+    }
+  }
+  std::size_t reloads_seen = session.reloads().size();
+  std::unique_ptr<penumbra::gpu::Image> heat_image;
+  int heat_uploaded = -1;  // the light whose heat map heat_image holds
+
   const penumbra::scene::Camera home = session.renderer().scene().camera;
   penumbra::runtime::CameraControls controls;
   auto last = Clock::now();
@@ -385,6 +456,9 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
       if (key == GLFW_KEY_V) cycle(session, "render.view", views());
       if (key == GLFW_KEY_F) cycle(session, "shadows.filter", filters());
       if (key == GLFW_KEY_R) session.renderer().scene().camera = home;
+#ifdef PENUMBRA_HAS_IMGUI
+      if (key == GLFW_KEY_T && ui) ui->cycle_heat_light();
+#endif
     }
     // After the panel: a parameter it set may have rebuilt the renderer (and its scene).
     if (ui_mouse())
@@ -394,13 +468,47 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
 
     session.set_frame_index(frame++);
     session.render(1);
+    if (session.reloads().size() > reloads_seen) {
+      const auto& records = session.reloads();
+      const bool rebuilt = std::any_of(records.begin() + std::ptrdiff_t(reloads_seen),
+                                       records.end(),
+                                       [](const auto& r) { return !r.result.rebuilt.empty(); });
+      if (truth && rebuilt) {
+        auto after = penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
+        print_lines(penumbra::runtime::truth_lines(*truth, after));
+        print_lines(penumbra::runtime::truth_since(*truth_start, after));
 #ifdef PENUMBRA_HAS_IMGUI
+        if (ui) ui->add_save(changed_files(records, reloads_seen), *truth, after, *truth_start);
+#endif
+        truth = std::move(after);
+        heat_uploaded = -1;
+      }
+      reloads_seen = records.size();
+    }
+    // The error heat map of the last snapshot in place of the frame, when the panel asks.
+    const penumbra::gpu::Image* shown = &session.renderer().output_image();
+#ifdef PENUMBRA_HAS_IMGUI
+    const int heat = ui && truth ? ui->heat_light() : -1;
+    if (heat >= 0 && std::size_t(heat) < truth->heat.size()) {
+      if (heat != heat_uploaded || !heat_image || heat_image->desc().width != truth->width ||
+          heat_image->desc().height != truth->height) {
+        penumbra::gpu::ImageDesc d;
+        d.width = truth->width;
+        d.height = truth->height;
+        d.usage = VK_IMAGE_USAGE_TRANSFER_SRC_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
+        heat_image = std::make_unique<penumbra::gpu::Image>(ctx, d);
+        const auto& texels = truth->heat[std::size_t(heat)];
+        heat_image->upload(std::as_bytes(std::span(texels)),
+                           VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
+        heat_uploaded = heat;
+      }
+      shown = heat_image.get();
+    }
     if (ui)
-      window.present(session.renderer().output_image(),
-                     [&](VkCommandBuffer cmd) { ui->record(cmd); });
+      window.present(*shown, [&](VkCommandBuffer cmd) { ui->record(cmd); });
     else
 #endif
-      window.present(session.renderer().output_image());
+      window.present(*shown);
 
     ++frames_since_title;
     if (now - last_title > std::chrono::milliseconds(250)) {
@@ -515,6 +623,9 @@ int run(int argc, char** argv) {
   std::printf("scene:       %s (%s)\n", scene.name.c_str(), scene_file.string().c_str());
   if (window) return run_window(ctx, *window, o, scene, frames);
   if (!o.headless) std::printf("penumbra-view: rendering headless: %s\n", why.c_str());
+  if (o.truth && !o.watch)
+    throw Error("--truth reports what each reload did: rendering headless (" + why +
+                "), it needs --watch");
 
   const auto t0 = std::chrono::steady_clock::now();
   penumbra::runtime::Session session(ctx, scene, session_options(o, o.watch));
@@ -605,28 +716,22 @@ int run(int argc, char** argv) {
     const fs::path png = out / (first_view + ".png");
     // --truth: the baseline now (the truth traced once, then read from the reference cache),
     // and after every reload that rebuilt something, what it did to GPU time and error.
-    penumbra::reference::MeasureOptions truth_options;
-    truth_options.failure_modes = true;
-    truth_options.cache_dir = penumbra::reference::default_cache_dir();
+    const penumbra::reference::MeasureOptions measure = truth_options();
     std::optional<penumbra::runtime::TruthSnapshot> before, start;
     std::optional<penumbra::reference::CameraPath> flicker_path;
-    const auto print_lines = [](const std::vector<std::string>& lines) {
-      for (const auto& l : lines) std::printf("%s\n", l.c_str());
-      std::fflush(stdout);
-    };
     if (o.truth) {
       std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
-                  truth_options.cache_dir->string().c_str());
+                  measure.cache_dir->string().c_str());
       std::fflush(stdout);
       if (!o.truth_flicker.empty()) flicker_path = penumbra::reference::find_path(o.truth_flicker);
-      before = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options,
-                                                flicker_path);
+      before = penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
       if (before->lights.empty()) {
         std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
                     scene.name.c_str());
         before.reset();
       } else {
         print_lines(penumbra::runtime::truth_lines(*before));
+        write_heat_maps(out, *before);
         start = before;
       }
     }
@@ -638,8 +743,8 @@ int run(int argc, char** argv) {
       std::fflush(stdout);
       if (before) {
         const auto t = std::chrono::steady_clock::now();
-        auto after = penumbra::runtime::measure_truth(session, kTruthFrames, truth_options,
-                                                      flicker_path);
+        auto after =
+            penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
         print_lines(penumbra::runtime::truth_lines(*before, after));
         print_lines(penumbra::runtime::truth_since(*start, after));
         std::printf("[truth] measured in %.0f ms after the new frame\n",
@@ -647,6 +752,7 @@ int run(int argc, char** argv) {
                                                               t)
                         .count());
         std::fflush(stdout);
+        write_heat_maps(out, after);
         before = std::move(after);
       }
     }

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <penumbra/core/stats.hpp>
+#include <penumbra/reference/metrics.hpp>
 #include <penumbra/render/renderer.hpp>
 
 namespace penumbra::runtime {
@@ -61,7 +62,10 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
   renderer.render(0);
   const reference::FrameMeasurement m = reference::measure_frame(renderer, options);
   s.pixels = m.lit;
+  s.width = m.width;
+  s.height = m.height;
   for (const auto& l : m.lights) {
+    s.heat.push_back(reference::error_image(l.gpu, l.reference.value, l.classes, m.lit));
     TruthLight t;
     t.name = l.light.name();
     t.mean_abs = l.metrics.mean_abs;
@@ -100,13 +104,17 @@ std::vector<std::string> truth_lines(const TruthSnapshot& now) {
   return out;
 }
 
+bool gpu_change_is_noise(const TruthSnapshot& before, const TruthSnapshot& after) {
+  // Within the two snapshots' spreads, or under 3% of the frame (lavapipe's frames vary by a
+  // few percent between snapshots seconds apart, more than within one).
+  return std::abs(after.frame_ms - before.frame_ms) <=
+         std::max(before.spread_ms + after.spread_ms, 0.03 * before.frame_ms);
+}
+
 std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSnapshot& after) {
   std::vector<std::string> out;
   const double dms = after.frame_ms - before.frame_ms;
-  // Noise: within the two snapshots' spreads, or under 3% of the frame (lavapipe's frames vary
-  // by a few percent between snapshots seconds apart, more than within one).
-  const bool noise = std::abs(dms) <= std::max(before.spread_ms + after.spread_ms,
-                                               0.03 * before.frame_ms);
+  const bool noise = gpu_change_is_noise(before, after);
   out.push_back(format("[truth] GPU %.3f -> %.3f ms per frame", before.frame_ms, after.frame_ms) +
                 format(" (%+.3f ms, spread %.3f / %.3f)", dms, before.spread_ms,
                        after.spread_ms) +

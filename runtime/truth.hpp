@@ -32,7 +32,15 @@ struct TruthSnapshot {
   std::map<std::string, double> pass_ms;
   std::vector<TruthLight> lights;
   std::vector<std::uint8_t> pixels;  // the measured frame, RGBA8
+  std::uint32_t width = 0, height = 0;
+  // Per light (in the order of `lights`): the error heat map against the truth over a grey copy
+  // of the frame (reference::error_image: too dark in blue, too light in red), RGBA8.
+  std::vector<std::vector<std::uint8_t>> heat;
 };
+
+// Whether a GPU-time change between two snapshots is noise: within both spreads, or under 3%
+// of the frame (lavapipe's frames vary by a few percent between snapshots seconds apart).
+bool gpu_change_is_noise(const TruthSnapshot& before, const TruthSnapshot& after);
 
 // The session's renderer must have been built with SessionOptions::visibility_output.
 // With `path`, the flicker along it too (its truth traced once per frame, then cached).

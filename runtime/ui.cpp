@@ -135,6 +135,7 @@ void Ui::panel(Session& session) {
       ImGui::Separator();
     }
 
+    truth_table();  // --truth: what each save did, first
     // One widget per settable row of the parameter table (scene/params.hpp): a combo for a
     // choice, a checkbox for a bool, a slider over the row's widget range (or its closed range)
     // for numbers, three drag fields for a vector. `key` is the row's key, or a light's
@@ -292,6 +293,123 @@ void Ui::panel(Session& session) {
   ImGui::End();
   ImGui::Render();
   rendered_ = true;
+}
+
+namespace {
+constexpr std::size_t kMaxSaves = 8;
+
+std::string percent(double v) {
+  char b[32];
+  std::snprintf(b, sizeof b, "%.3f", 100.0 * v);
+  return b;
+}
+std::string arrow(const std::string& before, const std::string& after) {
+  return before == after ? after : before + " > " + after;
+}
+std::string gap(double texels) {
+  if (!std::isfinite(texels)) return "none";
+  char b[32];
+  std::snprintf(b, sizeof b, "%.2f", texels);
+  return b;
+}
+}  // namespace
+
+void Ui::truth_baseline(const TruthSnapshot& baseline) {
+  baseline_ = baseline;
+  baseline_->pixels.clear();
+  baseline_->heat.clear();
+  light_names_.clear();
+  for (const auto& l : baseline.lights) light_names_.push_back(l.name);
+}
+
+void Ui::add_save(const std::string& what, const TruthSnapshot& before, const TruthSnapshot& after,
+                  const TruthSnapshot& start) {
+  since_ = truth_since(start, after).front();
+  if (since_.rfind("[truth] ", 0) == 0) since_ = since_.substr(8);
+  if (log_rows_) {
+    std::printf("[ui] saves: %zu, the last: %s\n", std::min(saves_.size() + 1, kMaxSaves),
+                what.c_str());
+    std::fflush(stdout);
+  }
+  Save s;
+  s.what = what;
+  s.ms_before = before.frame_ms;
+  s.ms_after = after.frame_ms;
+  s.noise = gpu_change_is_noise(before, after);
+  s.identical = before.pixels == after.pixels;
+  for (const auto& a : after.lights)
+    for (const auto& b : before.lights)
+      if (a.name == b.name) s.lights.emplace_back(b, a);
+  saves_.push_back(std::move(s));
+  if (saves_.size() > kMaxSaves) saves_.erase(saves_.begin());
+}
+
+void Ui::cycle_heat_light() {
+  heat_light_ = heat_light_ + 1 >= int(light_names_.size()) ? -1 : heat_light_ + 1;
+}
+
+void Ui::truth_table() {
+  if (!baseline_) return;
+  if (!ImGui::CollapsingHeader("against the ray-traced truth", ImGuiTreeNodeFlags_DefaultOpen))
+    return;
+  const std::string shown =
+      heat_light_ < 0 ? std::string("the frame")
+                      : "error heat map: " + light_names_[std::size_t(heat_light_)];
+  if (ImGui::BeginCombo("show (T)", shown.c_str())) {
+    if (ImGui::Selectable("the frame", heat_light_ < 0)) heat_light_ = -1;
+    for (std::size_t i = 0; i < light_names_.size(); ++i)
+      if (ImGui::Selectable(("error heat map: " + light_names_[i]).c_str(), heat_light_ == int(i)))
+        heat_light_ = int(i);
+    ImGui::EndCombo();
+  }
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("too dark against the truth in blue, too light in red, over a grey frame");
+  ImGui::Text("at the start: GPU %.3f ms (spread %.3f)", baseline_->frame_ms,
+              baseline_->spread_ms);
+  if (saves_.empty()) {
+    ImGui::TextDisabled("save a shader: each save's deltas appear here");
+    return;
+  }
+  const ImGuiTableFlags flags = ImGuiTableFlags_Borders | ImGuiTableFlags_RowBg |
+                                ImGuiTableFlags_SizingFixedFit | ImGuiTableFlags_ScrollX;
+  std::size_t rows = 1;
+  for (const Save& save : saves_) rows += save.lights.size();
+  const float height = ImGui::GetTextLineHeightWithSpacing() * float(rows + 1) +
+                       ImGui::GetStyle().ScrollbarSize;
+  if (!ImGui::BeginTable("saves", 8, flags, ImVec2(0, height))) return;
+  for (const char* h : {"save", "GPU ms", "light", "mean |dV|", "false light %", "false shadow %",
+                        "acne %", "gap texels"})
+    ImGui::TableSetupColumn(h);
+  ImGui::TableHeadersRow();
+  for (auto it = saves_.rbegin(); it != saves_.rend(); ++it) {  // the newest first
+    for (std::size_t i = 0; i < it->lights.size(); ++i) {
+      const auto& [b, a] = it->lights[i];
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      if (i == 0) ImGui::TextUnformatted((it->what + (it->identical ? " (image same)" : "")).c_str());
+      ImGui::TableNextColumn();
+      if (i == 0) {
+        if (it->noise)
+          ImGui::TextDisabled("%.3f (noise)", it->ms_after);
+        else
+          ImGui::Text("%.3f > %.3f", it->ms_before, it->ms_after);
+      }
+      char dv[64];
+      std::snprintf(dv, sizeof dv, "%.5f (%+.5f)", a.mean_abs, a.mean_abs - b.mean_abs);
+      const std::string cells[] = {a.name,
+                                   dv,
+                                   arrow(percent(b.false_light), percent(a.false_light)),
+                                   arrow(percent(b.false_shadow), percent(a.false_shadow)),
+                                   arrow(percent(b.acne), percent(a.acne)),
+                                   arrow(gap(b.gap_texels), gap(a.gap_texels))};
+      for (const std::string& c : cells) {
+        ImGui::TableNextColumn();
+        ImGui::TextUnformatted(c.c_str());
+      }
+    }
+  }
+  ImGui::EndTable();
+  ImGui::TextWrapped("%s", since_.c_str());
 }
 
 void Ui::record(VkCommandBuffer cmd) {

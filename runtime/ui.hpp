@@ -9,11 +9,13 @@
 //   window.present(image, [&](VkCommandBuffer c) { ui.record(c); });
 
 #include <memory>
+#include <optional>
 #include <penumbra/gpu/context.hpp>
 #include <string>
 #include <vector>
 
 #include "session.hpp"
+#include "truth.hpp"
 #include "window.hpp"
 
 namespace penumbra::runtime {
@@ -36,6 +38,16 @@ class Ui {
   // Records the panel's draws (inside Window's overlay render pass).
   void record(VkCommandBuffer cmd);
 
+  // penumbra-view --truth: the baseline against the ray-traced truth, and what each save did
+  // (GPU ms and each light's errors, before -> after): the panel's table of the last saves.
+  void truth_baseline(const TruthSnapshot& baseline);
+  void add_save(const std::string& what, const TruthSnapshot& before, const TruthSnapshot& after,
+                const TruthSnapshot& start);
+  // The light whose error heat map the window shows instead of the frame (the panel's "show"
+  // choice, or T); -1: the frame.
+  int heat_light() const { return heat_light_; }
+  void cycle_heat_light();
+
   bool wants_mouse() const;
   bool wants_keyboard() const;
   // Parameter changes made through the panel so far.
@@ -48,6 +60,18 @@ class Ui {
   VkDescriptorPool pool_ = VK_NULL_HANDLE;
   std::string last_error_;
   bool log_rows_ = false;
+  struct Save {
+    std::string what;
+    double ms_before = 0.0, ms_after = 0.0;
+    bool noise = true, identical = false;
+    std::vector<std::pair<TruthLight, TruthLight>> lights;  // before, after
+  };
+  std::optional<TruthSnapshot> baseline_;  // without pixels and heat maps
+  std::vector<Save> saves_;                // the last kMaxSaves, oldest first
+  std::vector<std::string> light_names_;
+  std::string since_;  // the last save against the start (truth_since)
+  int heat_light_ = -1;
+  void truth_table();
   std::vector<std::string> shown_;  // the rows the panel showed last, group by group
   uint64_t changes_ = 0;
   bool rendered_ = false;

@@ -13,6 +13,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <functional>
 #include <string>
 #include <sstream>
 #include <map>
@@ -176,6 +177,39 @@ TEST(WindowMode, ThePanelShowsTheRowsEachShippedSceneModels) {
   EXPECT_TRUE(has(grazing, "sun", "shadows.resolution"));
 }
 
+// Runs penumbra-view in a window on `x` with `args`, calling step(line) for each line it prints
+// (step returns true to stop it with SIGTERM); a guard SIGKILLs it after `limit` seconds.
+Result watch_window(const Xvfb& x, const std::string& args,
+                    const std::function<bool(const std::string&)>& step, int limit) {
+  const std::string cmd = "sh -c 'echo pid $$; exec env DISPLAY=" + x.display() +
+                          " PENUMBRA_VALIDATION=1 " + PENUMBRA_VIEW_EXE + " " + args + "' 2>&1";
+  FILE* p = popen(cmd.c_str(), "r");
+  if (p == nullptr) return {-1, "popen failed"};
+  std::atomic<pid_t> pid{-1};
+  std::atomic<bool> done{false};
+  std::thread guard([&] {  // never hang
+    for (int i = 0; i < 10 * limit && !done; ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    if (!done && pid > 0) kill(pid, SIGKILL);
+  });
+  Result r;
+  char buf[1024];
+  bool stopped = false;
+  while (fgets(buf, sizeof buf, p)) {
+    const std::string l = buf;
+    r.output += l;
+    if (l.rfind("pid ", 0) == 0) pid = static_cast<pid_t>(std::stol(l.substr(4)));
+    if (!stopped && step(l)) {
+      kill(pid, SIGTERM);
+      stopped = true;
+    }
+  }
+  r.status = pclose(p);
+  done = true;
+  guard.join();
+  return r;
+}
+
 TEST(WindowMode, ShowsTheReloadErrorInTheTitleUntilItIsFixed) {
   Xvfb x;
   ASSERT_TRUE(x.error().empty()) << x.error();
@@ -188,47 +222,80 @@ TEST(WindowMode, ShowsTheReloadErrorInTheTitleUntilItIsFixed) {
   std::string bad = good;
   bad.replace(at, line.size(), "  return clamp(radius, 0, kPcfMaxRadius)  // no semicolon");
 
-  const std::string cmd = "sh -c 'echo pid $$; exec env DISPLAY=" + x.display() +
-                          " PENUMBRA_VALIDATION=1 " + PENUMBRA_VIEW_EXE + " --shader-dir " +
-                          tree.shaders().string() + " --size 160x120' 2>&1";
-  FILE* p = popen(cmd.c_str(), "r");
-  ASSERT_NE(p, nullptr);
-  pid_t pid = -1;
-  std::atomic<bool> done{false};
-  std::thread guard([&] {  // never hang: stop the viewer after 30 s
-    for (int i = 0; i < 300 && !done; ++i)
-      std::this_thread::sleep_for(std::chrono::milliseconds(100));
-    if (!done && pid > 0) kill(pid, SIGKILL);
-  });
-  std::string output, shown, cleared;
-  char buf[1024];
+  std::string shown, cleared;
   int stage = 0;  // 0: starting, 1: broken, 2: fixed, 3: stopped
-  while (fgets(buf, sizeof buf, p)) {
-    const std::string l = buf;
-    output += l;
-    if (l.rfind("pid ", 0) == 0) pid = static_cast<pid_t>(std::stol(l.substr(4)));
-    if (stage == 0 && l.find("[window] 160x120, watching") != std::string::npos) {
-      testing::atomic_save(pcf, bad);
-      stage = 1;
-    } else if (stage == 1 && l.find("[window] title shows the reload error") != std::string::npos) {
-      shown = l;
-      testing::atomic_save(pcf, good);
-      stage = 2;
-    } else if (stage == 2 && l.find("[window] title clear") != std::string::npos) {
-      cleared = l;
-      kill(pid, SIGTERM);
-      stage = 3;
-    }
-  }
-  const int status = pclose(p);
-  done = true;
-  guard.join();
-  EXPECT_EQ(stage, 3) << output;
-  EXPECT_EQ(status, 0) << output;
+  const Result r = watch_window(
+      x, "--shader-dir " + tree.shaders().string() + " --size 160x120",
+      [&](const std::string& l) {
+        if (stage == 0 && l.find("[window] 160x120, watching") != std::string::npos) {
+          testing::atomic_save(pcf, bad);
+          stage = 1;
+        } else if (stage == 1 && l.find("[window] title shows the reload error") != std::string::npos) {
+          shown = l;
+          testing::atomic_save(pcf, good);
+          stage = 2;
+        } else if (stage == 2 && l.find("[window] title clear") != std::string::npos) {
+          cleared = l;
+          stage = 3;
+          return true;
+        }
+        return false;
+      },
+      30);
+  EXPECT_EQ(stage, 3) << r.output;
+  EXPECT_EQ(r.status, 0) << r.output;
   EXPECT_THAT(shown, HasSubstr("RELOAD ERROR: "));
   EXPECT_THAT(shown, HasSubstr("pcf.glsl:"));
   EXPECT_THAT(cleared, Not(HasSubstr("RELOAD ERROR")));
-  EXPECT_THAT(output, HasSubstr("validation:  0 messages"));
+  EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
+}
+
+// --truth in the window: the panel's table gets a row per save with the measured deltas, and
+// undoing the edit comes back bit-identical to the start. The shader directory is an overlay
+// holding only pcf.glsl (the rest comes from the library).
+TEST(WindowMode, TheTruthTableGetsARowPerSave) {
+  Xvfb x;
+  ASSERT_TRUE(x.error().empty()) << x.error();
+  TempTree tree(false);
+  const fs::path pcf = tree.root() / "overlay" / "penumbra" / "pcf.glsl";
+  fs::create_directories(pcf.parent_path());
+  const std::string good = testing::read_text(fs::path(PENUMBRA_SHADER_DIR) / "penumbra/pcf.glsl");
+  testing::write_text(pcf, good);
+  const std::string line = "  return clamp(radius, 0, kPcfMaxRadius);";
+  const auto at = good.find(line);
+  ASSERT_NE(at, std::string::npos);
+  std::string wider = good;
+  wider.replace(at, line.size(), "  return clamp(radius + 2, 0, kPcfMaxRadius);");
+
+  int stage = 0;  // 0: tracing, 1: widened, 2: undone, 3: stopped
+  std::string widened;
+  const Result r = watch_window(
+      x,
+      "--scene default --set shadows.filter=pcf --size 160x120 --truth --ui-rows --shader-dir " +
+          pcf.parent_path().parent_path().string(),
+      [&](const std::string& l) {
+        if (stage == 0 && l.rfind("[truth] GPU", 0) == 0) {
+          testing::atomic_save(pcf, wider);
+          stage = 1;
+        } else if (stage == 1 && l.rfind("[truth] sun: mean |dV|", 0) == 0) {
+          widened = l;
+        } else if (stage == 1 && l.rfind("[ui] saves: 1", 0) == 0) {
+          testing::atomic_save(pcf, good);
+          stage = 2;
+        } else if (stage == 2 && l.rfind("[ui] saves: 2", 0) == 0) {
+          stage = 3;
+          return true;
+        }
+        return false;
+      },
+      120);
+  EXPECT_EQ(stage, 3) << r.output;
+  EXPECT_EQ(r.status, 0) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("over " + fs::weakly_canonical(PENUMBRA_SHADER_DIR).string()));
+  EXPECT_THAT(widened, HasSubstr(" -> ")) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("[truth] image: changed"));
+  EXPECT_THAT(r.output, HasSubstr("image bit-identical to the start")) << r.output;
+  EXPECT_THAT(r.output, HasSubstr("validation:  0 messages"));
 }
 
 TEST(WindowMode, FallsBackToHeadlessWithoutADisplay) {

@@ -78,6 +78,14 @@ if not re.search(r"^\[truth\] sun: .*, flicker [0-9.]+ -> [0-9.]+%, path error "
     fail("no flicker delta along the path")
 if "image changed since the start" not in out:
     fail("the wider kernel left the image as it was")
+# Each snapshot writes the light's error heat map (the baseline's, then this save's).
+heat = os.path.join(work, "out", "truth-error.png")
+if not wait_for(r"^\[truth\] error heat map: " + re.escape(heat), 2):
+    fail("no error heat map written after the save")
+with open(heat, "rb") as f:
+    head = f.read(24)
+if head[:8] != b"\x89PNG\r\n\x1a\n" or head[16:24] != (160).to_bytes(4, "big") + (90).to_bytes(4, "big"):
+    fail(f"{heat} is not a 160x90 PNG")
 edit(original)
 if not wait_for(r"^\[truth\] since the start", 2):
     fail("no deltas after the edit was undone")
