@@ -188,17 +188,26 @@ check(r.returncode != 0, "a scene with a typo must fail")
 check("typo.toml:5" in r.stderr + r.stdout, f"the error names typo.toml:5:\n{r.stderr[-2000:]}")
 
 # The local-map sweep: every spot's and point light's resolution scaled, the format's default
-# (point: 512) where the file gives none, clamped to the format's limits.
+# (point: 512) where the file gives none, clamped to the format's limits; as the parameter
+# table's per-light keys, which penumbra-view takes (the scene file is not rewritten).
 src = os.path.join(work, "local.toml")
 with open(src, "w") as f:
-    f.write('name = "l"\n[[spot]]\nposition = [0, 2, 0]\nresolution = 1024  # map\n'
-            '[[point]]\nposition = [1, 2, 0]\n[[point]]\nposition = [2, 2, 0]\n'
-            'resolution = 6000\n[shadows]\nresolution = 2048\n')
-scaled = mod.scaled_local_maps(src, 2, os.path.join(work, "scaled", "l.toml"))
-with open(scaled) as f:
-    got = [line.strip() for line in f if line.startswith("resolution")]
-check(got == ["resolution = 2048", "resolution = 1024", "resolution = 8192", "resolution = 2048"],
-      f"scaled local maps: {got}")
+    f.write('name = "l"\n[[spot]]\nposition = [0, 2, 0]\ndirection = [0, -1, 0]\n'
+            'resolution = 1024  # map\n[[point]]\nposition = [1, 2, 0]\n[[point]]\n'
+            'position = [2, 2, 0]\nresolution = 6000\n[shadows]\nresolution = 2048\n'
+            '[[object]]\nmesh = "box"\n')
+sys.path.insert(0, os.path.join(os.path.dirname(bench)))
+from penumbra import oneknob, scenefile  # noqa: E402
+sets = oneknob.local_map_sets(scenefile.Features(scenefile.load(src)), 2)
+check(sets == [("spot[0].resolution", "2048"), ("point[0].resolution", "1024"),
+               ("point[1].resolution", "8192")], f"scaled local maps: {sets}")
+view = os.path.join(build, "runtime", "penumbra-view")
+r = subprocess.run([view, "--list-params", "--scene", src] +
+                   [a for k, v in sets for a in ("--set", f"{k}={v}")],
+                   capture_output=True, text=True)
+got = {row["key"]: row.get("values") for row in json.loads(r.stdout)} if r.returncode == 0 else {}
+check(got.get("spot.resolution") == ["2048"] and got.get("point.resolution") == ["1024", "8192"],
+      f"penumbra-view did not take the local-map sets: {r.stderr or got.get('point.resolution')}")
 
 if failures:
     print("\n".join(failures))

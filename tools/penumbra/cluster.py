@@ -84,7 +84,7 @@ def base_spec(scene, size, frames, path, path_frames):
 
 def bench_spec(scene, size, frames, flicker, written=False):
     """What a penumbra-bench point shares with the others of its scene. A scene file the bench
-    wrote (`written`: a moved copy, scaled maps) travels as its text, the checkout's folder in it
+    wrote (`written`: a moved copy) travels as its text, the checkout's folder in it
     (mask textures) made the worker's own; any other is found as penumbra-tune's are (in the
     worker's checkout, or at the same absolute path)."""
     spec = {"kind": "bench", "size": size, "frames": frames, "flicker": list(flicker),

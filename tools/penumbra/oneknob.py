@@ -2,14 +2,27 @@
 measures it as its own trade; penumbra-tune measures it beside its search, scored the same way,
 to show that the search's frontier covers it."""
 
-# A set whose key is LOCAL_MAPS scales every spot's and point light's map resolution (a rewritten
-# copy of the scene file: the parameter table has no per-light keys).
-LOCAL_MAPS = "local-maps-scale"
+# The local lights' map sizes: the scene format's defaults and upper limits (the parameter
+# table's spot.resolution and point.resolution rows, docs/scenes.md).
+LOCAL_RESOLUTION = {"spot": (1024, 16384), "point": (512, 8192)}
 
 
-def configurations(has_sun, has_contact, quick, max_map, has_local=False):
+def local_map_sets(features, factor):
+    """Every spot's and point light's shadow-map resolution times factor (the format's default
+    where the file gives none, clamped to [16, the format's limit]), as the parameter table's
+    per-light keys: [("spot[0].resolution", "2048"), ...]. The scene file is not rewritten."""
+    sets = []
+    for table, lights in (("spot", features.spots), ("point", features.points)):
+        default, top = LOCAL_RESOLUTION[table]
+        for i, light in enumerate(lights):
+            scaled = max(16, min(top, int(round(int(light.get("resolution", default)) * factor))))
+            sets.append((f"{table}[{i}].resolution", str(scaled)))
+    return sets
+
+
+def configurations(has_sun, has_contact, quick, max_map, lights=None):
     """(label, sets) pairs: the scene's defaults first, then one change at a time (sets: a list
-    of (key, value text))."""
+    of (key, value text)). lights: the scene's scenefile.Features, for its local lights' maps."""
     c = [("defaults", [])]
     c += [("hard", [("shadows.filter", "hard")])]
     radii = [1] if quick else [0, 1, 2, 3, 5]
@@ -36,8 +49,8 @@ def configurations(has_sun, has_contact, quick, max_map, has_local=False):
               for m in (512, 1024, 2048, 4096, 8192) if m <= max_map]
         c += [(f"fit {f}", [("shadows.fit", f)]) for f in ("box", "camera_sphere", "slice_sphere")]
         c += [("constant width", [("shadows.constant_filter_width", "true")])]
-    if has_local:
-        c += [(f"local maps x{f}", [(LOCAL_MAPS, str(f))]) for f in (0.5, 2)]
+    if lights is not None and (lights.spots or lights.points):
+        c += [(f"local maps x{f:g}", local_map_sets(lights, f)) for f in (0.5, 2)]
     # The biases (every light): half and twice the defaults, and none.
     c += [(f"normal offset {t}", [("shadows.normal_offset_texels", t)]) for t in ("0", "0.75", "3")]
     c += [(f"slope bias {t}", [("shadows.slope_bias", t)]) for t in ("0", "1", "4")]
