@@ -10,7 +10,8 @@
 //   frame loop  frames keep running, as in a windowed viewer; the save lands at a random moment
 //               of a frame (a second thread) and is reloaded between two frames;
 //   on change   the viewer idles until a save, then reloads and renders (penumbra-view --watch).
-// Prints medians (the latency and its parts) per file and mode, and the device name.
+// Prints medians (the latency and its parts) per file and mode, the median latency in steady
+// frames (the median frame before the edits) and its p99, and the device name.
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -19,6 +20,7 @@
 #include <functional>
 #include <optional>
 #include <penumbra/core/error.hpp>
+#include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -259,10 +261,11 @@ int run(int argc, char** argv) {
       }
       rows.push_back(row);
       std::printf(
-          "  %-22s %-25s latency %4.0f ms (min %4.0f, max %4.0f)  waited %4.0f  reload %4.0f  "
-          "frame %4.0f   rebuilt: %s\n",
-          row.file.c_str(), row.mode.c_str(), median(row.latency),
+          "  %-22s %-25s latency %4.0f ms (%.2f steady frames; min %4.0f, p99 %4.0f, max %4.0f)"
+          "  waited %4.0f  reload %4.0f  frame %4.0f   rebuilt: %s\n",
+          row.file.c_str(), row.mode.c_str(), median(row.latency), median(row.latency) / frame,
           *std::min_element(row.latency.begin(), row.latency.end()),
+          penumbra::stats::quantile(row.latency, 0.99),
           *std::max_element(row.latency.begin(), row.latency.end()), median(row.waited),
           median(row.reload), median(row.frame), row.rebuilt.c_str());
       std::fflush(stdout);
