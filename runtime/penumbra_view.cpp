@@ -136,6 +136,24 @@ void print_lines(const std::vector<std::string>& lines) {
   std::fflush(stdout);
 }
 
+// --truth's baseline: the view measured against the truth (traced once, then read from the
+// reference cache) and printed; nothing when the scene has no shadowed light to measure.
+std::optional<penumbra::runtime::TruthSnapshot> truth_baseline(
+    penumbra::runtime::Session& session, const penumbra::reference::MeasureOptions& measure,
+    const std::optional<penumbra::reference::CameraPath>& path, const std::string& scene) {
+  std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
+              measure.cache_dir->string().c_str());
+  std::fflush(stdout);
+  auto baseline = penumbra::runtime::measure_truth(session, kTruthFrames, measure, path);
+  if (baseline.lights.empty()) {
+    std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
+                scene.c_str());
+    return std::nullopt;
+  }
+  print_lines(penumbra::runtime::truth_lines(baseline));
+  return baseline;
+}
+
 // Each light's error heat map of a --truth snapshot, as truth-error.png (one light) or
 // truth-error-<light>.png, written atomically into out.
 void write_heat_maps(const fs::path& out, const penumbra::runtime::TruthSnapshot& s) {
@@ -197,22 +215,12 @@ int run_window(penumbra::gpu::Context& ctx, penumbra::runtime::Window& window, c
   std::optional<penumbra::reference::CameraPath> flicker_path;
   if (!o.truth_flicker.empty()) flicker_path = penumbra::reference::find_path(o.truth_flicker);
   std::optional<penumbra::runtime::TruthSnapshot> truth, truth_start;
-  if (o.truth) {
-    std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
-                measure.cache_dir->string().c_str());
-    std::fflush(stdout);
-    truth = penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
-    if (truth->lights.empty()) {
-      std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
-                  scene.name.c_str());
-      truth.reset();
-    } else {
-      print_lines(penumbra::runtime::truth_lines(*truth));
-      truth_start = truth;
+  if (o.truth) truth = truth_baseline(session, measure, flicker_path, scene.name);
+  if (truth) {
+    truth_start = truth;
 #ifdef PENUMBRA_HAS_IMGUI
-      if (ui) ui->truth_baseline(*truth);
+    if (ui) ui->truth_baseline(*truth);
 #endif
-    }
   }
   std::size_t reloads_seen = session.reloads().size();
   std::unique_ptr<penumbra::gpu::Image> heat_image;
@@ -507,17 +515,9 @@ int run(int argc, char** argv) {
     std::optional<penumbra::runtime::TruthSnapshot> before, start;
     std::optional<penumbra::reference::CameraPath> flicker_path;
     if (o.truth) {
-      std::printf("[truth] tracing the reference for this view (once; cached in %s)\n",
-                  measure.cache_dir->string().c_str());
-      std::fflush(stdout);
       if (!o.truth_flicker.empty()) flicker_path = penumbra::reference::find_path(o.truth_flicker);
-      before = penumbra::runtime::measure_truth(session, kTruthFrames, measure, flicker_path);
-      if (before->lights.empty()) {
-        std::printf("[truth] scene '%s' has no shadowed light to measure: no deltas\n",
-                    scene.name.c_str());
-        before.reset();
-      } else {
-        print_lines(penumbra::runtime::truth_lines(*before));
+      before = truth_baseline(session, measure, flicker_path, scene.name);
+      if (before) {
         write_heat_maps(out, *before);
         start = before;
       }
