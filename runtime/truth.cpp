@@ -3,9 +3,11 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <iterator>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/reference/metrics.hpp>
 #include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/params.hpp>
 
 namespace penumbra::runtime {
 namespace {
@@ -64,6 +66,9 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
   s.pixels = m.lit;
   s.width = m.width;
   s.height = m.height;
+  for (const std::string& key : scene::scene_keys(renderer.scene(), false))
+    s.settings.push_back(key + "=" + scene::get_param(renderer.scene(), key));
+  std::sort(s.settings.begin(), s.settings.end());
   for (const auto& l : m.lights) {
     s.heat.push_back(reference::error_image(l.gpu, l.reference.value, l.classes, m.lit));
     TruthLight t;
@@ -104,6 +109,19 @@ std::vector<std::string> truth_lines(const TruthSnapshot& now) {
   return out;
 }
 
+std::vector<std::string> changed_settings(const TruthSnapshot& before, const TruthSnapshot& after) {
+  std::vector<std::string> gone, changed;
+  std::set_symmetric_difference(before.settings.begin(), before.settings.end(),
+                                after.settings.begin(), after.settings.end(),
+                                std::back_inserter(gone));
+  for (const std::string& entry : gone) {
+    const std::string key = entry.substr(0, entry.find('='));
+    if (changed.empty() || changed.back() != key) changed.push_back(key);
+  }
+  changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+  return changed;
+}
+
 bool gpu_change_is_noise(const TruthSnapshot& before, const TruthSnapshot& after) {
   // Within the two snapshots' spreads, or under 3% of the frame (lavapipe's frames vary by a
   // few percent between snapshots seconds apart, more than within one).
@@ -115,6 +133,12 @@ std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSna
   std::vector<std::string> out;
   const double dms = after.frame_ms - before.frame_ms;
   const bool noise = gpu_change_is_noise(before, after);
+  if (const auto changed = changed_settings(before, after); !changed.empty()) {
+    std::string keys;
+    for (const auto& k : changed) keys += (keys.empty() ? "" : ", ") + k;
+    out.push_back("[truth] the view changed since the last snapshot (" + keys +
+                  "): these deltas compare two views, not only the edit");
+  }
   out.push_back(format("[truth] GPU %.3f -> %.3f ms per frame", before.frame_ms, after.frame_ms) +
                 format(" (%+.3f ms, spread %.3f / %.3f)", dms, before.spread_ms,
                        after.spread_ms) +
@@ -154,6 +178,7 @@ std::vector<std::string> truth_since(const TruthSnapshot& start, const TruthSnap
         line += ", " + a.name + format(" mean |dV| %+.5f", a.mean_abs - b.mean_abs);
   line += now.pixels == start.pixels ? "; image bit-identical to the start"
                                      : "; image changed since the start";
+  if (!changed_settings(start, now).empty()) line += " (the view changed since then)";
   return {line};
 }
 

@@ -33,6 +33,9 @@ struct TruthSnapshot {
   std::vector<TruthLight> lights;
   std::vector<std::uint8_t> pixels;  // the measured frame, RGBA8
   std::uint32_t width = 0, height = 0;
+  // Every parameter-table key of the measured scene with its value ("camera.position=0,2,6"),
+  // sorted: two snapshots compare the same view only when these match.
+  std::vector<std::string> settings;
   // Per light (in the order of `lights`): the error heat map against the truth over a grey copy
   // of the frame (reference::error_image: too dark in blue, too light in red), RGBA8.
   std::vector<std::vector<std::uint8_t>> heat;
@@ -41,6 +44,9 @@ struct TruthSnapshot {
 // Whether a GPU-time change between two snapshots is noise: within both spreads, or under 3%
 // of the frame (lavapipe's frames vary by a few percent between snapshots seconds apart).
 bool gpu_change_is_noise(const TruthSnapshot& before, const TruthSnapshot& after);
+// The keys whose values differ between two snapshots (the camera moved, a setting changed):
+// their deltas then compare two views, not two versions of the shaders. Empty when none.
+std::vector<std::string> changed_settings(const TruthSnapshot& before, const TruthSnapshot& after);
 
 // The session's renderer must have been built with SessionOptions::visibility_output.
 // With `path`, the flicker along it too (its truth traced once per frame, then cached).
@@ -49,7 +55,8 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
                             const std::optional<reference::CameraPath>& path = std::nullopt);
 
 // "[truth] ..." lines: the baseline, and before -> after per pass and per light. A GPU-time
-// change within the spreads of both, or under 3% of the frame, is reported as noise.
+// change within the spreads of both, or under 3% of the frame, is reported as noise; a changed
+// view or setting (changed_settings) is said first.
 std::vector<std::string> truth_lines(const TruthSnapshot& now);
 std::vector<std::string> truth_lines(const TruthSnapshot& before, const TruthSnapshot& after);
 // One line: GPU time, each light's mean |dV| and the image against the first snapshot (an edit

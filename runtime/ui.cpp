@@ -337,6 +337,7 @@ void Ui::add_save(const std::string& what, const TruthSnapshot& before, const Tr
   s.ms_after = after.frame_ms;
   s.noise = gpu_change_is_noise(before, after);
   s.identical = before.pixels == after.pixels;
+  s.view_changed = !changed_settings(before, after).empty();
   for (const auto& a : after.lights)
     for (const auto& b : before.lights)
       if (a.name == b.name) s.lights.emplace_back(b, a);
@@ -386,7 +387,13 @@ void Ui::truth_table() {
       const auto& [b, a] = it->lights[i];
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      if (i == 0) ImGui::TextUnformatted((it->what + (it->identical ? " (image same)" : "")).c_str());
+      if (i == 0)
+        ImGui::TextUnformatted((it->what + (it->identical ? " (image same)" : "") +
+                                (it->view_changed ? " (view changed)" : ""))
+                                   .c_str());
+      if (i == 0 && it->view_changed && ImGui::IsItemHovered())
+        ImGui::SetTooltip("the camera or a setting changed since the last snapshot: these deltas "
+                          "compare two views, not only the edit");
       ImGui::TableNextColumn();
       if (i == 0) {
         if (it->noise)

@@ -64,6 +64,7 @@ class Ui {
     std::string what;
     double ms_before = 0.0, ms_after = 0.0;
     bool noise = true, identical = false;
+    bool view_changed = false;  // the camera or a setting changed since the last snapshot
     std::vector<std::pair<TruthLight, TruthLight>> lights;  // before, after
   };
   std::optional<TruthSnapshot> baseline_;  // without pixels and heat maps
