@@ -2,8 +2,6 @@
 range, every GPU time positive, the report embeds its plot; a scene file with a typo fails and
 the error names the file and the line. Usage: bench_smoke.py BENCH BUILD_DIR WORK_DIR"""
 import csv
-import importlib.machinery
-import importlib.util
 import json
 import math
 import os
@@ -164,14 +162,13 @@ r = bench_run("--quick", "--shard", "3/2", "--out", os.path.join(work, "bad-shar
 check(r.returncode != 0 and "--shard 3/2" in r.stderr, f"--shard 3/2:\n{r.stderr}")
 
 # The moved bench-set scene: every position moved, and the tables without one given one.
-spec = importlib.util.spec_from_loader("bench", importlib.machinery.SourceFileLoader("bench", bench))
-mod = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(mod)
+sys.path.insert(0, os.path.dirname(bench))
+from penumbra import oneknob, scenefile  # noqa: E402
 src = os.path.join(work, "origin.toml")
 with open(src, "w") as f:
     f.write('name = "o"\n[camera]\nposition = [1, 2, 3]\ntarget = [0, 0, 0]  # look\n'
             '[[object]]\nmesh = "plane"\n[[object]]\nmesh = "box"\nposition = [0.5, 0, -1]\n')
-moved = mod.moved_scene(src, (1e5, 0.0, -2e5), os.path.join(work, "moved", "o.toml"))
+moved = scenefile.moved_scene(src, (1e5, 0.0, -2e5), os.path.join(work, "moved", "o.toml"))
 with open(moved) as f:
     text = f.read()
 for line in ("position = [100001.0, 2.0, -199997.0]", "target = [100000.0, 0.0, -200000.0]",
@@ -196,8 +193,6 @@ with open(src, "w") as f:
             'resolution = 1024  # map\n[[point]]\nposition = [1, 2, 0]\n[[point]]\n'
             'position = [2, 2, 0]\nresolution = 6000\n[shadows]\nresolution = 2048\n'
             '[[object]]\nmesh = "box"\n')
-sys.path.insert(0, os.path.join(os.path.dirname(bench)))
-from penumbra import oneknob, scenefile  # noqa: E402
 sets = oneknob.local_map_sets(scenefile.Features(scenefile.load(src)), 2)
 check(sets == [("spot[0].resolution", "2048"), ("point[0].resolution", "1024"),
                ("point[1].resolution", "8192")], f"scaled local maps: {sets}")
