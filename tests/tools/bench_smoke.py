@@ -119,13 +119,17 @@ def measured_rows(d):
         return [{k: v for k, v in r.items() if k not in TIMING} for r in csv.DictReader(f)]
 
 
+# The runs below take the first run's fetch rates (--texel-rate) rather than measuring them again.
+rates = ["--texel-rate", rate_path]
+
+
 def bench_run(*args):
     return subprocess.run([sys.executable, bench, *args, "--build", build], capture_output=True,
                           text=True)
 
 
 killed = os.path.join(work, "killed")
-p = subprocess.Popen([sys.executable, bench, "--quick", "--out", killed, "--build", build],
+p = subprocess.Popen([sys.executable, bench, "--quick", "--out", killed, "--build", build] + rates,
                      stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
 log = os.path.join(killed, "points.jsonl")
 deadline = time.monotonic() + 600
@@ -148,9 +152,13 @@ check(r.returncode != 0 and "start a new --out" in r.stderr,
       f"resuming with other settings must be refused:\n{r.stderr[-1000:]}")
 shards = [os.path.join(work, f"shard{i}") for i in (1, 2)]
 for i, d in enumerate(shards, 1):
-    r = bench_run("--quick", "--shard", f"{i}/2", "--out", d)
+    r = bench_run("--quick", "--shard", f"{i}/2", "--out", d, *rates)
     check(r.returncode == 0, f"--shard {i}/2:\n{r.stdout}{r.stderr[-2000:]}")
 merged = os.path.join(work, "merged")
+r = bench_run("--quick", "--texel-rate", os.path.join(work, "no-such.json"), "--out",
+              os.path.join(work, "no-rates"))
+check(r.returncode != 0 and "not a penumbra-texel-rate result" in r.stderr,
+      f"a missing --texel-rate file must be refused:\n{r.stderr[-1000:]}")
 r = bench_run("--merge", *shards, "--out", merged)
 check(r.returncode == 0 and "merged 4 of 4 points" in r.stdout, f"--merge:\n{r.stdout}{r.stderr}")
 if os.path.isfile(os.path.join(merged, "bench.csv")):
