@@ -71,15 +71,19 @@ def descendants(pid):
     return out
 
 
+def kill_descendants():
+    for pid in descendants(os.getpid()):
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except OSError:
+            pass
+
+
 def watchdog():
     print(f"FAIL reports_browser_test: still running after {WATCHDOG_S} s; killing it and "
           "everything it started", flush=True)
     try:
-        for pid in descendants(os.getpid()):
-            try:
-                os.kill(pid, signal.SIGKILL)
-            except OSError:
-                pass
+        kill_descendants()
         if "profile" in globals():  # the browser's profile folder
             shutil.rmtree(profile, ignore_errors=True)
         if own_group:
@@ -414,11 +418,7 @@ try:
 finally:
     # The browser is ended, not closed: its profile is thrown away, and Chromium's orderly
     # shutdown (driver.quit()) takes a second or more.
-    for pid in descendants(os.getpid()):
-        try:
-            os.kill(pid, signal.SIGKILL)
-        except OSError:
-            pass
+    kill_descendants()
     service.process.wait()
     timer.cancel()
     shutil.rmtree(profile, ignore_errors=True)
