@@ -84,7 +84,6 @@ penumbra::runtime::SessionOptions session_options(const Options& o, bool watch) 
   so.watch = watch;
   so.visibility_output = o.truth;
   so.debounce = std::chrono::milliseconds(o.debounce_ms);
-  so.quick_reloads = o.quick_reload;
   return so;
 }
 
@@ -529,12 +528,6 @@ int run(int argc, char** argv) {
       penumbra::render::write_png(png, renderer.width(), renderer.height(), session.pixels());
       std::printf("[watch] wrote %s\n", png.string().c_str());
       std::fflush(stdout);
-      // Quick pipelines first (a GPU): the PNG again once the optimized ones are in.
-      if (session.finish_optimizing()) {
-        penumbra::render::write_png(png, renderer.width(), renderer.height(), session.pixels());
-        std::printf("[watch] wrote %s (optimized pipelines)\n", png.string().c_str());
-        std::fflush(stdout);
-      }
       if (before) {
         const auto t = std::chrono::steady_clock::now();
         auto after =

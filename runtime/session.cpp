@@ -81,22 +81,17 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
     dirs.insert(dirs.end(), library_dirs_.begin(), library_dirs_.end());
     watcher_ = std::make_unique<Watcher>(dirs, wo);
   }
-  renderer_ = std::make_unique<render::Renderer>(ctx_, scene, renderer_options(width_, height_));
-  watch_outside_files();
-}
-
-Session::~Session() = default;
-
-render::RendererOptions Session::renderer_options(uint32_t width, uint32_t height) const {
   render::RendererOptions ro;
   ro.shader_dir = shader_dir_;
   ro.library_shader_dirs = library_dirs_;
   ro.visibility_output = options_.visibility_output;
-  ro.quick_reloads = options_.quick_reloads;
-  ro.width = width;
-  ro.height = height;
-  return ro;
+  ro.width = width_;
+  ro.height = height_;
+  renderer_ = std::make_unique<render::Renderer>(ctx_, scene, ro);
+  watch_outside_files();
 }
+
+Session::~Session() = default;
 
 bool Session::outside_tree(const fs::path& file) const {
   return layer_of(file).empty();
@@ -155,9 +150,15 @@ std::string Session::relative(const fs::path& file) const {
 }
 
 void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height) {
+  render::RendererOptions ro;
+  ro.shader_dir = shader_dir_;
+  ro.library_shader_dirs = library_dirs_;
+  ro.visibility_output = options_.visibility_output;
+  ro.width = width;
+  ro.height = height;
   std::unique_ptr<render::Renderer> fresh;
   try {
-    fresh = std::make_unique<render::Renderer>(ctx_, scene, renderer_options(width, height));
+    fresh = std::make_unique<render::Renderer>(ctx_, scene, ro);
   } catch (const Error& e) {
     throw Error(std::string("the renderer could not be rebuilt (the old one keeps running): ") +
                 e.what());
@@ -389,30 +390,7 @@ void Session::render(uint32_t count) {
       log(line);
     }
     awaiting_frame_.clear();
-    note_swap();  // after the latency: a swap at this frame's start is no earlier than it
   }
-}
-
-void Session::note_swap() {
-  const auto& swap = renderer_->last_swap();
-  for (const auto& e : swap.errors)
-    log("[reload] an optimized pipeline failed, its quick one stays: " + e);
-  if (swap.swapped == 0 || reloads_.empty()) return;
-  ReloadRecord& rec = reloads_.back();
-  rec.optimized_ms = ms_since(rec.event);
-  char line[160];
-  std::snprintf(line, sizeof line,
-                "[reload] optimized pipelines swapped in (%zu): %.0f ms after the file event",
-                swap.swapped, *rec.optimized_ms);
-  log(line);
-}
-
-bool Session::finish_optimizing() {
-  if (!renderer_->optimizing()) return false;
-  renderer_->finish_optimizing();
-  renderer_->render(frame_index_);
-  note_swap();
-  return true;
 }
 
 std::vector<uint8_t> Session::pixels() {

@@ -45,7 +45,6 @@ struct SessionOptions {
   std::uint32_t width = 0, height = 0;  // 0: the scene's [render] size
   bool watch = true;                    // false: no watcher (reload only through reload())
   bool visibility_output = false;       // the renderer writes each light's visibility (--truth)
-  std::optional<bool> quick_reloads;    // RendererOptions::quick_reloads (unset: by device)
   std::chrono::milliseconds debounce = kDefaultDebounce;
   // Every line the session prints ("[reload] ..."); default: stdout, flushed.
   std::function<void(const std::string&)> log;
@@ -60,9 +59,6 @@ struct ReloadRecord {
   double waited_ms = 0.0;   // first event -> batch handed out (debounce, a frame in flight)
   Clock::time_point event;  // the first event of the burst, as the watcher saw it
   std::optional<double> latency_ms;  // event -> end of the first frame with the new pipelines
-  // With quick reloads (RendererOptions::quick_reloads): event -> end of the first frame with
-  // the optimized pipelines swapped in.
-  std::optional<double> optimized_ms;
   // Whether the batch touched a pipeline (rebuilt, failed or lost a file it reads).
   bool relevant() const {
     return !result.rebuilt.empty() || !result.failed.empty() || !deleted.empty();
@@ -114,9 +110,6 @@ class Session {
   // Renders `count` frames; a finished burst of edits is reloaded before each.
   void render(std::uint32_t count = 1);
   bool rendered() const { return rendered_; }
-  // After a reload with quick pipelines (RendererOptions::quick_reloads): waits for the
-  // optimized ones, swaps them in and renders a frame with them. False when none was pending.
-  bool finish_optimizing();
   std::vector<std::uint8_t> pixels();  // the last frame, RGBA8
   void screenshot(const std::filesystem::path& png);
 
@@ -135,9 +128,6 @@ class Session {
   std::string relative(const std::filesystem::path& file) const;
 
  private:
-  render::RendererOptions renderer_options(std::uint32_t width, std::uint32_t height) const;
-  // Logs what the last frame swapped in (optimized pipelines) and records when.
-  void note_swap();
   ReloadRecord apply(const std::vector<FileChange>& changes);
   // Watches the directories of the files the pipelines read outside the shader tree (the
   // targets of symlinked shaders), so editing a target reloads too.

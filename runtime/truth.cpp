@@ -46,8 +46,6 @@ TruthSnapshot measure_truth(Session& session, std::uint32_t frames,
   TruthSnapshot s;
   std::vector<double> totals;
   std::map<std::string, std::vector<double>> passes;
-  // The GPU time of the optimized pipelines, not of a reload's quick ones.
-  session.finish_optimizing();
   // No warm-up frame: the session has rendered the reload's first frame already.
   for (std::uint32_t f = 0; f < frames; ++f) {
     renderer.render(0);

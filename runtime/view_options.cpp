@@ -59,7 +59,6 @@ void usage() {
       "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
       "                     [--list-params]\n"
       "                     [--shader-dir DIR] [--watch] [--truth] [--debounce-ms N]\n"
-      "                     [--quick-reload auto|on|off]\n"
       "                     [--exit-after-frames] [--no-ui] [--ui-rows]\n"
       "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
       "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
@@ -90,9 +89,6 @@ void usage() {
       "  --truth-flicker PATH  --truth, and the flicker and error along a camera path\n"
       "                (translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg)\n"
       "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
-      "  --quick-reload a reload shows pipelines the driver made without its optimizations\n"
-      "                first and swaps the optimized ones in when they are made (auto: on a\n"
-      "                GPU, off on a CPU device such as lavapipe)\n"
       "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
       "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
       "                scene, size, set KEY VALUE, get, view, frame, render [N], screenshot\n"
@@ -181,13 +177,6 @@ Options parse_options(int argc, char** argv) {
       o.ui = false;
     else if (a == "--debounce-ms")
       o.debounce_ms = parse_uint(a, value(), 0, 60000);
-    else if (a == "--quick-reload") {
-      const std::string v = value();
-      if (v == "on" || v == "off")
-        o.quick_reload = v == "on";
-      else if (v != "auto")
-        throw Error("--quick-reload: expected auto, on or off, got '" + v + "'");
-    }
     else if (a == "--script") {
       const std::string file = value();
       std::error_code ec;

@@ -4,7 +4,6 @@
 // choices).
 #include <cstdint>
 #include <filesystem>
-#include <optional>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <string_view>
@@ -33,7 +32,6 @@ struct Options {
   bool ui = true;                  // window: the Dear ImGui parameter panel
   bool ui_rows = false;            // window: print the panel's rows (--ui-rows)
   uint32_t debounce_ms = uint32_t(penumbra::runtime::kDefaultDebounce.count());
-  std::optional<bool> quick_reload;  // --quick-reload on|off (unset: auto, by device)
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
   std::vector<std::pair<std::string, std::string>> sets;     // --set KEY=VALUE, in order

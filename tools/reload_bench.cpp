@@ -12,10 +12,6 @@
 //   on change   the viewer idles until a save, then reloads and renders (penumbra-view --watch).
 // Prints medians (the latency and its parts) per file and mode, the median latency in steady
 // frames (the median frame before the edits) and its p99, and the device name.
-// With quick reloads (--quick-reload, on by default on a GPU: the first pipelines are made without
-// the driver's optimizations) each row also gives the latency of the first frame with the
-// optimized pipelines, and whether that frame is bit-identical to the quick one (both are
-// rendered with the temporal history reset).
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
@@ -110,7 +106,6 @@ struct Options {
   int edits = 10;
   std::vector<std::string> only;  // file filter
   fs::path shader_dir;            // the tree to copy; empty: the repo's shaders/
-  std::optional<bool> quick;      // --quick-reload on|off; unset: by device
 };
 
 Options parse(int argc, char** argv) {
@@ -134,17 +129,10 @@ Options parse(int argc, char** argv) {
       o.only.push_back(value());
     else if (a == "--shader-dir")
       o.shader_dir = value();
-    else if (a == "--quick-reload") {
-      const std::string v = value();
-      if (v == "on" || v == "off")
-        o.quick = v == "on";
-      else if (v != "auto")
-        throw Error("--quick-reload: expected auto, on or off, got '" + v + "'");
-    }
     else if (a == "--help" || a == "-h") {
       std::printf(
           "usage: penumbra-reload-bench [--scene NAME] [--size WxH] [--edits N] [--file F]...\n"
-          "                             [--shader-dir DIR] [--quick-reload auto|on|off]\n"
+          "                             [--shader-dir DIR]\n"
           "  defaults: default scene, 640x360, 10 edits per file and mode; --file limits the\n"
           "  files (penumbra/pcf.glsl, penumbra/shadow.glsl, penumbra/noise.glsl,\n"
           "  contact_shadows.comp)\n");
@@ -158,8 +146,6 @@ Options parse(int argc, char** argv) {
 struct Row {
   std::string file, mode;
   std::vector<double> latency, waited, reload, frame;
-  std::vector<double> optimized;  // quick reloads: event -> first frame with optimized pipelines
-  int identical = 0;              // of the optimized frames, bit-identical to the quick one
   std::string rebuilt;
 };
 
@@ -186,7 +172,6 @@ int run(int argc, char** argv) {
   so.width = o.width;
   so.height = o.height;
   so.log = [](const std::string&) {};
-  so.quick_reloads = o.quick;
   penumbra::runtime::Session session(ctx, scene, so);
 
   // Warm up, and the frame time without reloads.
@@ -203,8 +188,7 @@ int run(int argc, char** argv) {
   gpu_ms.erase(gpu_ms.begin(), gpu_ms.begin() + 4);
   const double frame = median(frame_ms);
 
-  std::printf("penumbra-reload-bench on %s; quick reloads %s\n", ctx.info().name.c_str(),
-              o.quick ? (*o.quick ? "on" : "off") : (ctx.info().is_cpu ? "off (auto)" : "on (auto)"));
+  std::printf("penumbra-reload-bench on %s\n", ctx.info().name.c_str());
   std::printf(
       "scene %s at %ux%u; frame %.0f ms (GPU %.0f ms), debounce %lld ms; %d edits per "
       "file and mode\n",
@@ -228,9 +212,10 @@ int run(int argc, char** argv) {
     for (const Mode mode : {Mode{"new code", true}, Mode{"undo/redo", true},
                             Mode{"new code", false}, Mode{"undo/redo", false}}) {
       const bool fresh = std::string(mode.edit) == "new code";
-      Row row;
-      row.file = t.file;
-      row.mode = std::string(mode.edit) + (mode.continuous ? ", frame loop" : ", on change");
+      Row row{t.file, std::string(mode.edit) + (mode.continuous ? ", frame loop" : ", on change"),
+              {},     {},
+              {},     {},
+              {}};
       for (int i = 0; i < o.edits; ++i) {
         const long k = fresh ? ++unique : 1 + (i % 2);
         const std::string text = replaced(original, t.needle, t.edit(k), t.file);
@@ -269,25 +254,6 @@ int run(int argc, char** argv) {
         row.waited.push_back(done->waited_ms);
         row.reload.push_back(done->reload_ms);
         row.frame.push_back(*done->latency_ms - done->waited_ms - done->reload_ms);
-        if (session.renderer().optimizing()) {
-          // The quick pipelines' frame (the first after the reload: history reset), then the
-          // first with the optimized ones, and one more with the history reset to compare.
-          const std::vector<uint8_t> quick = session.pixels();
-          const size_t index = session.reloads().size() - 1;
-          if (mode.continuous) {
-            const auto deadline = Clock::now() + std::chrono::seconds(30);
-            while (!session.reloads()[index].optimized_ms && Clock::now() < deadline)
-              session.render();
-          } else {
-            session.finish_optimizing();
-          }
-          const auto& rec = session.reloads()[index];
-          if (!rec.optimized_ms) throw Error(t.file + ": no optimized pipelines within 30 s");
-          row.optimized.push_back(*rec.optimized_ms);
-          session.renderer().reset_history();
-          session.render();
-          if (session.pixels() == quick) ++row.identical;
-        }
         if (row.rebuilt.empty()) {
           for (const auto& n : done->result.rebuilt)
             row.rebuilt += (row.rebuilt.empty() ? "" : ", ") + n.substr(0, n.find(' '));
@@ -302,13 +268,6 @@ int run(int argc, char** argv) {
           penumbra::stats::quantile(row.latency, 0.99),
           *std::max_element(row.latency.begin(), row.latency.end()), median(row.waited),
           median(row.reload), median(row.frame), row.rebuilt.c_str());
-      if (!row.optimized.empty()) {
-        std::printf("  %-22s %-25s optimized %4.0f ms (p99 %4.0f); bit-identical to the quick "
-                    "frame in %d of %zu\n",
-                    "", "", median(row.optimized),
-                    penumbra::stats::quantile(row.optimized, 0.99), row.identical,
-                    row.optimized.size());
-      }
       std::fflush(stdout);
     }
     write_text(file, original);  // restored; reloaded with the next frames

@@ -1,31 +1,8 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/check.hpp>
 #include <penumbra/gpu/pipeline.hpp>
-#include <penumbra/gpu/pipeline_upgrades.hpp>
 
 namespace penumbra::gpu {
-
-namespace {
-
-VkPipeline create_compute(Context& ctx, std::span<const uint32_t> spirv, VkPipelineLayout layout,
-                          const VkSpecializationInfo* spec, VkPipelineCache cache,
-                          VkPipelineCreateFlags flags) {
-  ShaderModule module(ctx, spirv);
-  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
-  ci.flags = flags;
-  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
-  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
-  ci.stage.module = module.handle();
-  ci.stage.pName = "main";
-  ci.stage.pSpecializationInfo = spec;
-  ci.layout = layout;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  check(vkCreateComputePipelines(ctx.device(), cache, 1, &ci, nullptr, &pipeline),
-        "vkCreateComputePipelines");
-  return pipeline;
-}
-
-}  // namespace
 
 PipelineLayout::PipelineLayout(Context& ctx, const std::vector<std::vector<BindingDesc>>& sets,
                                uint32_t push_constant_size, VkShaderStageFlags push_stages)
@@ -76,36 +53,29 @@ ComputePipeline::ComputePipeline(Context& ctx, std::span<const uint32_t> spirv,
                                  const PipelineLayout& layout, Specialization spec,
                                  VkPipelineCache cache)
     : ctx_(ctx), layout_(layout) {
-  PipelineUpgrades* upgrades = PipelineUpgrades::current();
-  quick_ = upgrades != nullptr;
-  pipeline_ = create_compute(ctx, spirv, layout.handle(), spec.info(), cache,
-                             quick_ ? VK_PIPELINE_CREATE_DISABLE_OPTIMIZATION_BIT : 0);
-  if (!quick_) return;
-  upgrade_ = std::make_shared<detail::UpgradeJob>();
-  upgrade_->device = ctx.device();
-  upgrade_->compute = this;
-  upgrade_->make = [&ctx, code = std::vector<uint32_t>(spirv.begin(), spirv.end()),
-                    layout = layout.handle(), spec, cache]() mutable {
-    return create_compute(ctx, code, layout, spec.info(), cache, 0);
-  };
-  upgrades->enqueue(upgrade_);
+  ShaderModule module(ctx, spirv);
+  VkComputePipelineCreateInfo ci{VK_STRUCTURE_TYPE_COMPUTE_PIPELINE_CREATE_INFO};
+  ci.stage = {VK_STRUCTURE_TYPE_PIPELINE_SHADER_STAGE_CREATE_INFO};
+  ci.stage.stage = VK_SHADER_STAGE_COMPUTE_BIT;
+  ci.stage.module = module.handle();
+  ci.stage.pName = "main";
+  ci.stage.pSpecializationInfo = spec.info();
+  ci.layout = layout.handle();
+  check(vkCreateComputePipelines(ctx.device(), cache, 1, &ci, nullptr, &pipeline_),
+        "vkCreateComputePipelines");
 }
 
 ComputePipeline::~ComputePipeline() {
-  if (upgrade_) upgrade_->forget();
   vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
 }
 
-void ComputePipeline::adopt(VkPipeline optimized) {
-  vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
-  pipeline_ = optimized;
-  quick_ = false;
-}
-
-namespace {
-
-VkPipeline create_graphics(Context& ctx, GraphicsPipelineDesc& desc, VkPipelineLayout layout,
-                           VkPipelineCache cache, VkPipelineCreateFlags flags) {
+GraphicsPipeline::GraphicsPipeline(Context& ctx, GraphicsPipelineDesc desc,
+                                   const PipelineLayout& layout, VkPipelineCache cache)
+    : ctx_(ctx), layout_(layout) {
+  if (desc.depth_clamp && !ctx.info().depth_clamp) {
+    throw Error("GraphicsPipelineDesc.depth_clamp: device " + ctx.info().name +
+                " lacks the depthClamp feature");
+  }
   ShaderModule vs(ctx, desc.vertex_spirv);
   std::optional<ShaderModule> fs;
   if (!desc.fragment_spirv.empty()) fs.emplace(ctx, desc.fragment_spirv);
@@ -189,58 +159,13 @@ VkPipeline create_graphics(Context& ctx, GraphicsPipelineDesc& desc, VkPipelineL
   gi.pDepthStencilState = &ds;
   gi.pColorBlendState = &cb;
   gi.pDynamicState = &dy;
-  gi.layout = layout;
-  gi.flags = flags;
-  VkPipeline pipeline = VK_NULL_HANDLE;
-  check(vkCreateGraphicsPipelines(ctx.device(), cache, 1, &gi, nullptr, &pipeline),
+  gi.layout = layout.handle();
+  check(vkCreateGraphicsPipelines(ctx.device(), cache, 1, &gi, nullptr, &pipeline_),
         "vkCreateGraphicsPipelines");
-  return pipeline;
-}
-
-// A GraphicsPipelineDesc that owns its SPIR-V (the background build outlives the caller's).
-struct OwnedDesc {
-  GraphicsPipelineDesc desc;
-  std::vector<uint32_t> vertex, fragment;
-  explicit OwnedDesc(const GraphicsPipelineDesc& d)
-      : desc(d),
-        vertex(d.vertex_spirv.begin(), d.vertex_spirv.end()),
-        fragment(d.fragment_spirv.begin(), d.fragment_spirv.end()) {
-    desc.vertex_spirv = vertex;
-    desc.fragment_spirv = fragment;
-  }
-};
-
-}  // namespace
-
-GraphicsPipeline::GraphicsPipeline(Context& ctx, GraphicsPipelineDesc desc,
-                                   const PipelineLayout& layout, VkPipelineCache cache)
-    : ctx_(ctx), layout_(layout) {
-  if (desc.depth_clamp && !ctx.info().depth_clamp) {
-    throw Error("GraphicsPipelineDesc.depth_clamp: device " + ctx.info().name +
-                " lacks the depthClamp feature");
-  }
-  PipelineUpgrades* upgrades = PipelineUpgrades::current();
-  quick_ = upgrades != nullptr;
-  pipeline_ = create_graphics(ctx, desc, layout.handle(), cache,
-                              quick_ ? VK_PIPELINE_CREATE_DISABLE_OPTIMIZATION_BIT : 0);
-  if (!quick_) return;
-  upgrade_ = std::make_shared<detail::UpgradeJob>();
-  upgrade_->device = ctx.device();
-  upgrade_->graphics = this;
-  upgrade_->make = [&ctx, owned = std::make_shared<OwnedDesc>(desc), layout = layout.handle(),
-                    cache] { return create_graphics(ctx, owned->desc, layout, cache, 0); };
-  upgrades->enqueue(upgrade_);
 }
 
 GraphicsPipeline::~GraphicsPipeline() {
-  if (upgrade_) upgrade_->forget();
   vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
-}
-
-void GraphicsPipeline::adopt(VkPipeline optimized) {
-  vkDestroyPipeline(ctx_.device(), pipeline_, nullptr);
-  pipeline_ = optimized;
-  quick_ = false;
 }
 
 DescriptorPool::DescriptorPool(Context& ctx, uint32_t max_sets) : ctx_(ctx) {

@@ -83,11 +83,6 @@ struct Renderer::Impl {
   BuildReport report;
   std::vector<PassTiming> timings;
   shader::ProgramRegistry registry;  // every pipeline's sources, for hot reload
-  // RendererOptions::quick_reloads: the optimized twins of a reload's quick pipelines, made in
-  // the background and swapped in at the start of a frame.
-  bool quick_reloads = false;
-  gpu::PipelineUpgrades upgrades;
-  gpu::PipelineUpgrades::Installed last_swap;
   FrameResources res;
   gpu::Buffer readback;
   gpu::TimestampPool timestamps;
@@ -111,7 +106,6 @@ struct Renderer::Impl {
     res.reverse_z = s.shadows.reverse_z;
     res.visibility_output = o.visibility_output;
     res.specialize = o.specialize;
-    quick_reloads = o.quick_reloads.value_or(!c.info().is_cpu);
   }
 
   // The temporal history (shadows.temporal): the last frame's camera, and what resets it.
@@ -123,15 +117,7 @@ struct Renderer::Impl {
   uint64_t last_key = 0;
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
-    res.quick_builds = quick_reloads ? &upgrades : nullptr;
-    ReloadResult result;
-    try {
-      result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
-    } catch (...) {
-      res.quick_builds = nullptr;
-      throw;
-    }
-    res.quick_builds = nullptr;
+    ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
     if (!result.rebuilt.empty()) last_camera.reset();
     return result;
   }
@@ -285,8 +271,6 @@ struct Renderer::Impl {
   }
 
   void render(uint32_t frame_index) {
-    // The last frame was waited for: no command buffer uses the quick pipelines now.
-    last_swap = upgrades.install_ready();
     update(frame_index);
     VkCommandBuffer cmd = recorder.begin();
     record(cmd);
@@ -330,21 +314,7 @@ std::vector<std::string> Renderer::pipelines_reading(const fs::path& file) const
 }
 
 Renderer::~Renderer() {
-  if (!impl_) return;
-  impl_->upgrades.stop();  // before the passes and their pipeline layouts go
-  vkDeviceWaitIdle(impl_->ctx.device());
-}
-
-bool Renderer::optimizing() {
-  return impl_->upgrades.pending();
-}
-
-void Renderer::finish_optimizing() {
-  impl_->upgrades.wait();
-}
-
-const gpu::PipelineUpgrades::Installed& Renderer::last_swap() const {
-  return impl_->last_swap;
+  if (impl_) vkDeviceWaitIdle(impl_->ctx.device());
 }
 
 void Renderer::render(uint32_t frame_index) {

@@ -8,11 +8,9 @@
 #include <array>
 #include <cmath>
 #include <cstring>
-#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/gpu/commands.hpp>
 #include <penumbra/gpu/pipeline.hpp>
-#include <penumbra/gpu/pipeline_upgrades.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/shader/compiler.hpp>
 #include <penumbra/testing/gpu_test.hpp>
@@ -150,69 +148,6 @@ void main() { out_.y[0] = float(kA) * kB; }
     vkCmdDispatch(cmd, 1, 1, 1);
   });
   EXPECT_EQ(out.read_vector<float>(1)[0], 10.5f);
-}
-
-// A compute pipeline made under a PipelineUpgrades scope: quick first, its optimized twin made on
-// the background thread and swapped in by install_ready(); the swapped pipeline keeps its
-// specialization. A pipeline destroyed before its twin is made drops the twin.
-TEST_F(GpuTest, QuickPipelinesAreMadeAgainOptimizedAndSwappedIn) {
-  const auto spirv = compute_spirv(R"(#version 460
-layout(local_size_x = 1) in;
-layout(constant_id = 0) const int kA = 1;
-layout(std430, binding = 0) buffer Out { float y[]; } out_;
-void main() { out_.y[0] = float(kA) * 0.5; }
-)");
-  gpu::PipelineLayout layout(ctx(), {{{0}}});
-  gpu::Specialization spec;
-  spec.set<int32_t>(0, 9);
-  gpu::PipelineUpgrades upgrades;
-  upgrades.hold(true);  // the twin waits until released
-  std::optional<gpu::ComputePipeline> pipeline;
-  {
-    gpu::PipelineUpgrades::Scope scope(&upgrades);
-    EXPECT_EQ(gpu::PipelineUpgrades::current(), &upgrades);
-    pipeline.emplace(ctx(), spirv, layout, spec);
-  }
-  EXPECT_EQ(gpu::PipelineUpgrades::current(), nullptr) << "the scope ended";
-  EXPECT_TRUE(pipeline->quick());
-  EXPECT_FALSE(gpu::ComputePipeline(ctx(), spirv, layout).quick()) << "made outside the scope";
-  EXPECT_TRUE(upgrades.pending());
-  EXPECT_EQ(upgrades.install_ready().swapped, 0u) << "held: nothing made yet";
-  EXPECT_TRUE(pipeline->quick());
-
-  upgrades.hold(false);
-  upgrades.wait();
-  const auto installed = upgrades.install_ready();
-  EXPECT_EQ(installed.swapped, 1u);
-  EXPECT_TRUE(installed.errors.empty());
-  EXPECT_FALSE(pipeline->quick());
-  EXPECT_FALSE(upgrades.pending());
-
-  gpu::Buffer out(ctx(), 4, VK_BUFFER_USAGE_STORAGE_BUFFER_BIT);
-  gpu::DescriptorPool pool(ctx());
-  VkDescriptorSet set = pool.allocate(layout.set_layout(0));
-  gpu::DescriptorWriter().buffer(0, out.handle()).update(ctx(), set);
-  gpu::submit_one_shot(ctx(), [&](VkCommandBuffer cmd) {
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pipeline->handle());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout.handle(), 0, 1, &set, 0,
-                            nullptr);
-    vkCmdDispatch(cmd, 1, 1, 1);
-  });
-  EXPECT_EQ(out.read_vector<float>(1)[0], 4.5f) << "the optimized twin kept the specialization";
-
-  // Replaced before its twin was made (a newer reload): nothing is left to swap.
-  upgrades.hold(true);
-  {
-    gpu::PipelineUpgrades::Scope scope(&upgrades);
-    gpu::ComputePipeline gone(ctx(), spirv, layout, spec);
-    EXPECT_TRUE(upgrades.pending());
-  }
-  EXPECT_FALSE(upgrades.pending());
-  upgrades.hold(false);
-  upgrades.wait();
-  EXPECT_EQ(upgrades.install_ready().swapped, 0u);
-  upgrades.stop();
-  upgrades.stop();  // idempotent
 }
 
 TEST_F(GpuTest, DepthUploadRoundTripsForEveryKind) {

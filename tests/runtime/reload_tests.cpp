@@ -116,51 +116,6 @@ TEST_F(ReloadTest, AValidEditChangesTheImage) {
   EXPECT_EQ(after, cold_start()) << "the reloaded pipeline renders what a fresh one does";
 }
 
-// Quick reloads (RendererOptions::quick_reloads, on by default on a GPU): the reload's pipelines
-// are made without the driver's optimizations and their optimized twins are swapped in later.
-// Two edits: pcf.glsl reaches a compute pipeline (shadow-resolve), forward.frag a graphics one.
-// Lavapipe ignores the flag, so every image must equal a cold start: the twins are made from the
-// same SPIR-V, specialization and state as the pipelines they replace.
-TEST_F(ReloadTest, QuickPipelinesThenTheOptimizedOnesRenderTheColdStartImage) {
-  runtime::SessionOptions o;
-  o.shader_dir = tree.shaders();
-  o.quick_reloads = true;
-  o.log = [this](const std::string& line) { log.push_back(line); };
-  runtime::Session s(ctx(), small_scene("default"), o);
-  s.render();
-  EXPECT_FALSE(s.renderer().optimizing()) << "the first build is optimized";
-  struct Edit {
-    std::string file, from, to, rebuilt;
-  };
-  for (const Edit& e :
-       {Edit{"penumbra/pcf.glsl", kSaturate, kLighterShadows, "shadow-resolve"},
-        Edit{"render/forward.frag", "vec3 color = albedo * frame.ambient.rgb * (0.6 + 0.4 * n.y);",
-             "vec3 color = albedo * frame.ambient.rgb * (0.9 + 0.4 * n.y);", "forward-opaque"}}) {
-    SCOPED_TRACE(e.file);
-    const auto before = s.pixels();
-    log.clear();
-    edit(e.file, e.from, e.to);
-    const auto rec = s.wait_reload(kTimeout);
-    ASSERT_TRUE(rec);
-    ASSERT_TRUE(rec->result.ok()) << s.error_text();
-    EXPECT_THAT(short_names(rec->result.rebuilt), ::testing::Contains(e.rebuilt));
-    const auto quick = s.pixels();  // the first frame after the reload (history reset)
-    EXPECT_GT(differing_pixels(before, quick), 0u);
-    // The twins are swapped in at the start of a frame once made; finish_optimizing() waits.
-    s.finish_optimizing();
-    EXPECT_FALSE(s.renderer().optimizing());
-    EXPECT_TRUE(logged("[reload] optimized pipelines swapped in")) << ::testing::PrintToString(log);
-    ASSERT_TRUE(s.reloads().back().optimized_ms);
-    EXPECT_GE(*s.reloads().back().optimized_ms, *s.reloads().back().latency_ms);
-    s.renderer().reset_history();
-    s.render();
-    const auto optimized = s.pixels();
-    const auto cold = cold_start();
-    EXPECT_EQ(quick, cold) << "the quick pipelines render what a fresh build does (lavapipe)";
-    EXPECT_EQ(optimized, cold) << "so do their optimized twins";
-  }
-}
-
 TEST_F(ReloadTest, AnEditOfALibraryFunctionChangesTheShadows) {
   auto s = start();
   const auto before = s->pixels();

@@ -4,17 +4,12 @@
 
 #include <cstdint>
 #include <cstring>
-#include <memory>
 #include <optional>
 #include <penumbra/gpu/context.hpp>
 #include <span>
 #include <vector>
 
 namespace penumbra::gpu {
-
-namespace detail {
-struct UpgradeJob;  // pipeline_upgrades.hpp
-}
 
 struct BindingDesc {
   uint32_t binding = 0;
@@ -93,9 +88,6 @@ class ShaderModule {
   VkShaderModule module_ = VK_NULL_HANDLE;
 };
 
-// Made on a thread where a PipelineUpgrades::Scope lives, a pipeline is made quickly (the driver
-// may skip its optimizations: VK_PIPELINE_CREATE_DISABLE_OPTIMIZATION_BIT) and made again with
-// them in the background; PipelineUpgrades::install_ready() then swaps the optimized one in.
 class ComputePipeline {
  public:
   ComputePipeline(Context& ctx, std::span<const uint32_t> spirv, const PipelineLayout& layout,
@@ -105,16 +97,11 @@ class ComputePipeline {
   ComputePipeline& operator=(const ComputePipeline&) = delete;
   VkPipeline handle() const { return pipeline_; }
   const PipelineLayout& layout() const { return layout_; }
-  bool quick() const { return quick_; }  // made without the driver's optimizations, for now
 
  private:
-  friend struct detail::UpgradeJob;
-  void adopt(VkPipeline optimized);
   Context& ctx_;
   const PipelineLayout& layout_;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
-  bool quick_ = false;
-  std::shared_ptr<detail::UpgradeJob> upgrade_;
 };
 
 struct VertexInput {
@@ -151,16 +138,11 @@ class GraphicsPipeline {
   GraphicsPipeline& operator=(const GraphicsPipeline&) = delete;
   VkPipeline handle() const { return pipeline_; }
   const PipelineLayout& layout() const { return layout_; }
-  bool quick() const { return quick_; }  // as ComputePipeline::quick()
 
  private:
-  friend struct detail::UpgradeJob;
-  void adopt(VkPipeline optimized);
   Context& ctx_;
   const PipelineLayout& layout_;
   VkPipeline pipeline_ = VK_NULL_HANDLE;
-  bool quick_ = false;
-  std::shared_ptr<detail::UpgradeJob> upgrade_;
 };
 
 // A descriptor pool sized for simple use (tests, passes). Sets are freed with the pool.

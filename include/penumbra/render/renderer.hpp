@@ -8,9 +8,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <memory>
-#include <optional>
 #include <penumbra/gpu/context.hpp>
-#include <penumbra/gpu/pipeline_upgrades.hpp>
 #include <penumbra/gpu/resources.hpp>
 #include <penumbra/render/frame_types.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -35,12 +33,6 @@ struct RendererOptions {
   // the driver compiles only that code (docs/architecture.md). Off: one pipeline each, every
   // filter compiled, the values read from the frame; the images are the same bit for bit.
   bool specialize = true;
-  // A hot reload first makes its pipelines quickly (VK_PIPELINE_CREATE_DISABLE_OPTIMIZATION_BIT:
-  // the driver may skip its optimizations) and shows them, while the optimized ones are made in
-  // the background and swapped in at the start of a later frame (gpu/pipeline_upgrades.hpp).
-  // Unset: on for a GPU, off for a CPU device (lavapipe compiles its code at the first dispatch,
-  // so a second, optimized pipeline would only be compiled again).
-  std::optional<bool> quick_reloads;
 };
 
 // Slots of read_visibility(): the sun, then the spot lights, then the point lights.
@@ -128,15 +120,6 @@ class Renderer {
   // Hot reload: rebuilds exactly the pipelines whose shader sources or includes read one of
   // these files. A source that fails to compile leaves its pipeline as it was.
   ReloadResult reload(const std::vector<std::filesystem::path>& changed_files);
-  // After a reload with quick pipelines (RendererOptions::quick_reloads): whether optimized ones
-  // are still being made or wait to be swapped in. render() swaps in those made, at its start.
-  bool optimizing();
-  // Waits until the optimized pipelines are made: the next render() swaps them in and renders
-  // with them (GPU timings of quick pipelines are not the optimized ones').
-  void finish_optimizing();
-  // What the last render() swapped in at its start, and the optimized builds that failed (their
-  // quick pipelines stay).
-  const gpu::PipelineUpgrades::Installed& last_swap() const;
   // Every file the pipelines' shaders read (stage files and includes), weakly canonical.
   std::vector<std::filesystem::path> shader_files() const;
   // The pipelines that read `file` (directly or through includes).

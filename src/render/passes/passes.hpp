@@ -15,7 +15,6 @@
 #include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/render/frame_pack.hpp>
 #include <penumbra/render/renderer.hpp>
-#include <penumbra/gpu/pipeline_upgrades.hpp>
 #include <penumbra/shader/registry.hpp>
 #include <string>
 #include <vector>
@@ -48,9 +47,6 @@ struct FrameResources {
   bool reverse_z = true;
   bool visibility_output = false;
   bool specialize = true;  // RendererOptions::specialize
-  // Set while a reload makes its pipelines quickly (RendererOptions::quick_reloads): the
-  // pipelines a Prepare makes then are queued there to be made again optimized.
-  gpu::PipelineUpgrades* quick_builds = nullptr;
   scene::Scene::Requirements req{};
 
   std::vector<GpuMesh> meshes;

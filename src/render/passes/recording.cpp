@@ -127,12 +127,7 @@ gpu::Image FrameResources::make_image(const std::string& name, gpu::ImageKind ki
 void FrameResources::add_prepared_pipeline(const std::string& name,
                                            std::vector<shader::ProgramSource> sources,
                                            shader::ProgramRegistry::Prepare prepare) {
-  // quick_builds is set only while reload() waits for its Prepares: read here, on their threads.
-  registry.add_prepared(name, std::move(sources),
-                        [this, prepare = std::move(prepare)](const shader::Spirvs& spirv) {
-                          gpu::PipelineUpgrades::Scope scope(quick_builds);
-                          return prepare(spirv);
-                        });
+  registry.add_prepared(name, std::move(sources), std::move(prepare));
   report.pipelines.push_back(name);
 }
 
