@@ -289,6 +289,9 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
   std::snprintf(ms, sizeof ms, "%.0f ms", rec.reload_ms);
   if (!rec.result.rebuilt.empty())
     log("[reload] rebuilt: " + join(short_names(rec.result.rebuilt)) + " (" + ms + ")");
+  if (!rec.result.same_spirv.empty())
+    log("[reload] the SPIR-V of " + join(short_names(rec.result.same_spirv)) +
+        " did not change (the edit reaches no code they compile)");
   if (!rec.result.failed.empty()) {
     // New errors in full; an error that did not change (a retried file) in one line.
     std::set<std::string> shown;

@@ -276,6 +276,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     }
   }
   for (Pending& n : pending) {
+    if (n.spirv == n.program->current) result.same_spirv.push_back(n.program->name);
     n.program->current = std::move(n.spirv);
     n.program->dependencies = std::move(n.deps);
     result.rebuilt.push_back(n.program->name);

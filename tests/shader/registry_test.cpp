@@ -79,6 +79,23 @@ TEST(ProgramRegistry, RebuildsExactlyTheProgramsThatReadAChangedFile) {
   EXPECT_EQ(waits, 1);  // nothing to create: no wait
 }
 
+// A reload says which rebuilt programs got the SPIR-V they had: a comment, or a function they do
+// not call, changes no code and the driver's cache answers.
+TEST(ProgramRegistry, SaysWhichRebuiltProgramsKeptTheirSpirv) {
+  Tree t;
+  t.write("lib/a.glsl", "float a() { return 1.0; }\nfloat unused() { return 3.0; }\n");
+  ProgramRegistry r(t.root);
+  r.add("one", {{"one.comp", {}}}, [](const Spirvs&) {});
+  t.write("lib/a.glsl", "// a comment\nfloat a() { return 1.0; }\nfloat unused() { return 4.0; }\n");
+  auto res = r.reload({t.root / "lib/a.glsl"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("one"));
+  EXPECT_THAT(res.same_spirv, ElementsAre("one"));
+  t.write("lib/a.glsl", "float a() { return 1.5; }\n");
+  res = r.reload({t.root / "lib/a.glsl"});
+  EXPECT_THAT(res.rebuilt, ElementsAre("one"));
+  EXPECT_THAT(res.same_spirv, IsEmpty()) << "a() returns another value";
+}
+
 // An overlay over a library (penumbra-view --shader-dir DIR over the installed shaders): stage
 // files and includes come from the overlay when it has them, else from the library; a file that
 // appears in or leaves the overlay rebuilds the programs that read its name in either layer.

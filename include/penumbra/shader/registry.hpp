@@ -46,6 +46,9 @@ using Spirvs = std::vector<std::vector<uint32_t>>;
 // but keep their last good pipeline because another one failed.
 struct ReloadResult {
   std::vector<std::string> rebuilt;
+  // Of those rebuilt, the programs whose new SPIR-V is the old one's (a comment, or code of a
+  // function they do not call): the driver's shader cache answers for them.
+  std::vector<std::string> same_spirv;
   std::vector<std::string> failed;
   std::vector<std::string> held;
   std::vector<std::string> errors;
