@@ -393,7 +393,8 @@ void measure(penumbra::runtime::Session& session, const fs::path& shaders, const
         median(row.reload), median(row.frame), row.rebuilt.c_str(), note.c_str());
     std::fflush(stdout);
   }
-  write_text(file, original);  // restored; reloaded with the next frames
+  write_text(file, original);  // restored, and reloaded before the next file's first edit
+  session.wait_reload(std::chrono::seconds(30), file);
   for (int i = 0; i < 3; ++i) session.render();
 }
 
