@@ -9,6 +9,9 @@
 #include <penumbra/reference/temporal.hpp>
 #include <penumbra/scene/params.hpp>
 #include <stdexcept>
+#include <tuple>
+
+#include "cli.hpp"
 
 namespace penumbra::runtime {
 namespace {
@@ -23,80 +26,10 @@ const std::vector<std::string>& choices(std::string_view key) {
   return out;
 }
 
-bool contains(const std::vector<std::string>& names, const std::string& name) {
-  return std::find(names.begin(), names.end(), name) != names.end();
-}
-
 std::string keys(const std::vector<std::string>& names) {
   std::string s;
   for (const auto& k : names) s += (s.empty() ? "" : ", ") + k;
   return s;
-}
-
-// A whole number in [lo, hi], or an error naming the flag, the value and the range.
-uint32_t parse_uint(const std::string& flag, const std::string& v, uint32_t lo = 0,
-                    uint32_t hi = 100000) {
-  unsigned long x = 0;
-  try {
-    size_t used = 0;
-    if (v.empty() || v[0] == '-' || v[0] == '+') throw std::invalid_argument(v);
-    x = std::stoul(v, &used);
-    if (used != v.size()) throw std::invalid_argument(v);
-  } catch (const std::exception&) {
-    throw Error(flag + " " + v + ": expected a whole number in [" + std::to_string(lo) + ", " +
-                std::to_string(hi) + "]");
-  }
-  if (x < lo || x > hi) {
-    throw Error(flag + " " + v + ": out of range; must be in [" + std::to_string(lo) + ", " +
-                std::to_string(hi) + "]");
-  }
-  return static_cast<uint32_t>(x);
-}
-
-void usage() {
-  std::printf(
-      "usage: penumbra-view [--scene NAME|FILE] [--headless] [--frames N] [--out DIR]\n"
-      "                     [--view VIEW] [--filter FILTER] [--size WxH] [--list-devices]\n"
-      "                     [--list-params]\n"
-      "                     [--shader-dir DIR] [--watch] [--truth] [--debounce-ms N]\n"
-      "                     [--exit-after-frames] [--no-ui] [--ui-rows]\n"
-      "                     [--script FILE|-] [--command LINE]... [--set KEY=VALUE]...\n"
-      "  --scene       a shipped scene (default, grazing, space, indoor) or a .toml file\n"
-      "  --headless    render offscreen and write PNGs (the default when there is no display)\n"
-      "  window mode   (a display and no --headless): the live view with hot reload; left drag\n"
-      "                orbits, right drag looks, WASD/QE fly (Shift: faster), scroll zooms,\n"
-      "                V / F cycle the view / filter, R resets the camera, Esc closes\n"
-      "  --exit-after-frames  window mode: close after --frames N presented frames\n"
-      "  --no-ui       window mode without the parameter panel (Dear ImGui)\n"
-      "  --ui-rows     window mode: print the panel's rows, group by group, when they change\n"
-      "  --out         where PNGs and timings go (default out/<scene name>; an existing\n"
-      "                directory is reused and its files of the same names replaced)\n"
-      "  --view        %s (default: lit, then every debug view)\n"
-      "  --filter      %s (default: the scene's)\n"
-      "  --set         override a parameter-table key after loading, e.g.\n"
-      "                --set shadows.pcf_radius=2 (docs/scenes.md lists the keys)\n"
-      "  --list-params print the parameter table as JSON (key, type, range, choices, doc,\n"
-      "                default) with the scene's values after --set, and exit\n"
-      "  --shader-dir  a shader tree to compile and watch over the library (the repo's or the\n"
-      "                installed shaders/): files in DIR win, the rest are read from the library\n"
-      "  --watch       after the frames, keep running: shader edits are hot-reloaded and the\n"
-      "                view's PNG rewritten after each (Ctrl-C stops)\n"
-      "  --truth       after every reload, the GPU ms and the error against the ray-traced\n"
-      "                truth (per light: mean |dV|, false light and shadow, acne, contact gap)\n"
-      "                before -> after, and each light's error heat map; the truth is traced\n"
-      "                once. Window: a table of the last saves in the panel, T shows the heat\n"
-      "                maps; headless: needs --watch, prints them and writes truth-error*.png\n"
-      "  --truth-flicker PATH  --truth, and the flicker and error along a camera path\n"
-      "                (translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg)\n"
-      "  --debounce-ms quiet time that ends a burst of file events (default 15)\n"
-      "  --script      run automation commands from FILE ('-': stdin) instead of the default\n"
-      "                frames; --command LINE runs one (both may repeat, in order). Commands:\n"
-      "                scene, size, set KEY VALUE, get, view, frame, render [N], screenshot\n"
-      "                PATH.png, timings, reload, wait_reload [MS], edit FILE [MS], replace FILE\n"
-      "                OLD NEW, expect_reload_ok, expect_reload_error TEXT, expect_rebuilt\n"
-      "                NAME..., echo, quit (docs/hot-reload.md)\n"
-      "  PENUMBRA_DEVICE=lavapipe|gpu|<index>|<name>, PENUMBRA_VALIDATION=1\n",
-      keys(views()).c_str(), keys(filters()).c_str());
 }
 
 }  // namespace
@@ -113,93 +46,114 @@ scene::DebugView view_of(const std::string& name) {
   return static_cast<scene::DebugView>(std::find(v.begin(), v.end(), name) - v.begin());
 }
 
+namespace {
+
+// A directory for --shader-dir, or an error saying what the path is instead.
+void check_shader_dir(const fs::path& dir) {
+  std::error_code ec;
+  if (fs::is_directory(dir, ec)) return;
+  const std::string problem = penumbra::file_problem(dir);
+  throw Error("--shader-dir " + penumbra::printable(dir.string()) + ": " +
+              (problem == "not found" ? problem
+               : problem.empty()      ? std::string("is a file, not a directory")
+                                      : problem.substr(0, problem.find(',')) + ", not a directory"));
+}
+
+// A script file for --script: a regular file or a pipe (--script <(...)), or "-" (stdin); a
+// directory or a device (/dev/zero would be read for ever) is refused, saying which.
+void check_script(const std::string& file) {
+  if (const std::string problem = penumbra::file_problem(file);
+      file != "-" && !problem.empty() && problem.find("FIFO") == std::string::npos) {
+    throw Error("--script " + penumbra::printable(file) + ": " +
+                (problem == "not found"
+                     ? std::string("no such file")
+                     : problem.substr(0, problem.find(',')) + ", not a script file"));
+  }
+}
+
+}  // namespace
+
 Options parse_options(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + ": missing value");
-      return argv[++i];
-    };
-    if (a == "--scene")
-      o.scene = value();
-    else if (a == "--headless")
-      o.headless = true;
-    else if (a == "--frames")
-      o.frames = parse_uint(a, value(), 1, 10000);  // render.frames' range
-    else if (a == "--out")
-      o.out = value();
-    else if (a == "--view") {
-      o.view = value();
-      if (!contains(views(), o.view))
-        throw Error("--view " + o.view + ": expected one of " + keys(views()));
-    } else if (a == "--filter") {
-      o.filter = value();
-      if (!contains(filters(), o.filter))
-        throw Error("--filter " + o.filter + ": expected one of " + keys(filters()));
-    } else if (a == "--size") {
-      const std::string v = value();
-      const auto x = v.find('x');
-      if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
-      // The scene file's range for render.width and render.height; the device's own limits are
-      // checked once it is known (check_size).
-      o.width = parse_uint("--size " + v + ": width", v.substr(0, x), 16, 16384);
-      o.height = parse_uint("--size " + v + ": height", v.substr(x + 1), 16, 16384);
-    } else if (a == "--list-devices")
-      o.list_devices = true;
-    else if (a == "--list-params")
-      o.list_params = true;
-    else if (a == "--shader-dir") {
-      o.shader_dir = value();
-      std::error_code ec;
-      if (!fs::is_directory(o.shader_dir, ec)) {
-        const std::string problem = penumbra::file_problem(o.shader_dir);
-        throw Error("--shader-dir " + penumbra::printable(o.shader_dir.string()) + ": " +
-                    (problem == "not found" ? problem
-                     : problem.empty()
-                         ? std::string("is a file, not a directory")
-                         : problem.substr(0, problem.find(',')) + ", not a directory"));
-      }
-    } else if (a == "--watch")
-      o.watch = true;
-    else if (a == "--truth")
-      o.truth = true;
-    else if (a == "--truth-flicker") {
-      o.truth_flicker = value();
-      penumbra::reference::find_path(o.truth_flicker);  // an unknown path names the known ones
-      o.truth = true;
-    }
-    else if (a == "--exit-after-frames")
-      o.exit_after_frames = true;
-    else if (a == "--ui-rows")
-      o.ui_rows = true;
-    else if (a == "--no-ui")
-      o.ui = false;
-    else if (a == "--debounce-ms")
-      o.debounce_ms = parse_uint(a, value(), 0, 60000);
-    else if (a == "--script") {
-      const std::string file = value();
-      std::error_code ec;
-      // A regular file or a pipe (--script <(...)); a directory or a device (/dev/zero would
-      // be read for ever) is refused, saying which.
-      if (const std::string problem = penumbra::file_problem(file);
-          file != "-" && !problem.empty() && problem.find("FIFO") == std::string::npos) {
-        throw Error("--script " + penumbra::printable(file) + ": " +
-                    (problem == "not found"
-                         ? std::string("no such file")
-                         : problem.substr(0, problem.find(',')) + ", not a script file"));
-      }
-      o.scripts.emplace_back("script", file);
-    } else if (a == "--command")
-      o.scripts.emplace_back("command", value());
-    else if (a == "--set")
-      o.sets.push_back(penumbra::scene::split_set_flag(value()));
-    else if (a == "--help" || a == "-h") {
-      usage();
-      std::exit(0);
-    } else
-      throw Error("unknown argument '" + a + "' (try --help)");
-  }
+  penumbra::cli::Command app("penumbra-view", "Renders a scene's shadows; live, it hot-reloads its shaders.");
+  app.footer(
+      "Window mode (a display and no --headless): the live view with hot reload; left drag\n"
+      "orbits, right drag looks, WASD/QE fly (Shift: faster), scroll zooms, V / F cycle the\n"
+      "view / filter, R resets the camera, T the truth's heat maps, Esc closes.\n"
+      "Environment: PENUMBRA_DEVICE=lavapipe|gpu|<index>|<name>, PENUMBRA_VALIDATION=1");
+  app.option("--scene", [&](const std::string& v) { o.scene = v; },
+            "a shipped scene (default, grazing, space, indoor) or a .toml file");
+  app.flag("--headless", o.headless,
+               "render offscreen and write PNGs (the default when there is no display)");
+  app.option("--frames",
+      [&](const std::string& v) { o.frames = cli::whole("--frames", v, 1, 10000); },
+      "frames to render, 1 to 10000 (render.frames' range)");
+  app.option("--out", [&](const std::string& v) { o.out = v; },
+            "where PNGs and timings go (default out/<scene name>; an existing directory is "
+            "reused and its files of the same names replaced)");
+  app.option("--view", [&](const std::string& v) { o.view = cli::one_of("--view", v, views()); },
+      keys(views()) + " (default: lit, then every debug view)");
+  app.option("--filter",
+      [&](const std::string& v) { o.filter = cli::one_of("--filter", v, filters()); },
+      keys(filters()) + " (default: the scene's)");
+  // The scene file's range for render.width and render.height; the device's own limits are
+  // checked once it is known (check_size).
+  app.option("--size",
+      [&](const std::string& v) { std::tie(o.width, o.height) = cli::size("--size", v, 16, 16384); },
+      "the render size, each side 16 to 16384 (default: the scene's)");
+  app.flag("--list-devices", o.list_devices, "list the Vulkan devices and exit");
+  app.flag("--list-params", o.list_params,
+               "print the parameter table as JSON (key, type, range, choices, doc, default) with "
+               "the scene's values after --set, and exit");
+  app.option("--shader-dir",
+      [&](const std::string& v) {
+        o.shader_dir = v;
+        check_shader_dir(o.shader_dir);
+      },
+      "a shader tree to compile and watch over the library (the repo's or the installed "
+      "shaders/): files in DIR win, the rest are read from the library");
+  app.flag("--watch", o.watch,
+               "after the frames, keep running: shader edits are hot-reloaded and the view's PNG "
+               "rewritten after each (Ctrl-C stops)");
+  app.flag("--truth", o.truth,
+               "after every reload, the GPU ms and the error against the ray-traced truth (per "
+               "light: mean |dV|, false light and shadow, acne, contact gap) before -> after, "
+               "and each light's error heat map; the truth is traced once. Window: a table of "
+               "the last saves in the panel, T shows the heat maps; headless: needs --watch, "
+               "prints them and writes truth-error*.png");
+  app.option("--truth-flicker",
+      [&](const std::string& v) {
+        o.truth_flicker = v;
+        penumbra::reference::find_path(o.truth_flicker);  // an unknown path names the known ones
+        o.truth = true;
+      },
+      "--truth, and the flicker and error along a camera path (translate-1mm, translate-1cm, "
+      "yaw-0.05deg, sun-0.05deg)");
+  app.option("--debounce-ms",
+      [&](const std::string& v) { o.debounce_ms = cli::whole("--debounce-ms", v, 0, 60000); },
+      "quiet time that ends a burst of file events (default 15)");
+  app.flag("--exit-after-frames", o.exit_after_frames,
+               "window mode: close after --frames N presented frames");
+  app.flag("!--no-ui", o.ui, "window mode without the parameter panel (Dear ImGui)");
+  app.flag("--ui-rows", o.ui_rows,
+               "window mode: print the panel's rows, group by group, when they change");
+  app.option("--script",
+      [&](const std::string& v) {
+        check_script(v);
+        o.scripts.emplace_back("script", v);
+      },
+      "run automation commands from FILE ('-': stdin) instead of the default frames; --command "
+      "LINE runs one (both may repeat, in order). Commands: scene, size, set KEY VALUE, get, "
+      "view, frame, render [N], screenshot PATH.png, timings, reload, wait_reload [MS], edit "
+      "FILE [MS], replace FILE OLD NEW, expect_reload_ok, expect_reload_error TEXT, "
+      "expect_rebuilt NAME..., echo, quit (docs/hot-reload.md)");
+  app.option("--command", [&](const std::string& v) { o.scripts.emplace_back("command", v); },
+      "one automation command (as in --script)");
+  app.option("--set",
+      [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
+      "override a parameter-table key after loading, e.g. --set shadows.pcf_radius=2 "
+      "(docs/scenes.md lists the keys)");
+  app.parse(argc, argv);
   if (!o.sets.empty() && !o.scripts.empty())
     throw Error(
         "--set does not combine with --script or --command (use the command 'set KEY "

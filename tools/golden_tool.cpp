@@ -12,36 +12,13 @@
 #include <string>
 #include <vector>
 
+
+#include "cli.hpp"
+
 namespace {
 namespace fs = std::filesystem;
 namespace golden = penumbra::golden;
 using penumbra::Error;
-
-void usage(FILE* f) {
-  std::fprintf(
-      f,
-      "usage: penumbra-golden list\n"
-      "       penumbra-golden check  [--case NAME]... [--report DIR] [--shader-dir DIR]\n"
-      "                              [--against CLASS] [--stats]\n"
-      "       penumbra-golden update (--case NAME... | --all) [--dry-run] [--review DIR]\n"
-      "                              [--samples N] [--cache DIR | --no-cache]\n"
-      "  list     the cases (tests/golden/cases.toml) and the device classes with goldens\n"
-      "  check    render each case on this device and compare it with its golden, region by\n"
-      "           region; a report (expected, actual, difference, regions, index.html) per\n"
-      "           case into --report (default out/golden-check); exit 1 when one fails\n"
-      "  update   render each case, measure it against the ray-traced reference, refuse it\n"
-      "           when it is over its accuracy budget, write the review page (current golden,\n"
-      "           new frame, difference) into --review (default out/golden-review), then\n"
-      "           replace tests/golden/<device class>/<case>/ (not with --dry-run)\n"
-      "  --case   a case name (--scene is the same flag); default for check: every case\n"
-      "  --shader-dir  render with the shaders of this tree instead of the source tree's\n"
-      "  --against     compare with another device class's goldens (calibration: how far\n"
-      "                lavapipe and a GPU differ)\n"
-      "  --stats       per region, the pixels differing by more than 1/255, 0.02, 0.1, 0.25\n"
-      "                and 0.5, as CSV lines on stdout\n"
-      "  --samples, --cache, --no-cache  as penumbra-reference takes them\n"
-      "  $PENUMBRA_GOLDEN_DIR replaces tests/golden.\n");
-}
 
 struct Options {
   std::string command;
@@ -54,53 +31,48 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  if (argc < 2) throw Error("missing command: list, check or update (try --help)");
-  o.command = argv[1];
-  if (o.command == "--help" || o.command == "-h") {
-    usage(stdout);
-    std::exit(0);
+  penumbra::cli::Command app("penumbra-golden", "The reviewed goldens of tests/golden: list, check and update them.");
+  app.footer("$PENUMBRA_GOLDEN_DIR replaces tests/golden.");
+  penumbra::cli::Command& list = app.subcommand(
+      "list", "the cases (tests/golden/cases.toml) and the device classes with goldens");
+  penumbra::cli::Command& check = app.subcommand(
+      "check",
+      "render each case on this device and compare it with its golden, region by region; a "
+      "report (expected, actual, difference, regions, index.html) per case into --report; exit "
+      "1 when one fails");
+  penumbra::cli::Command& update = app.subcommand(
+      "update",
+      "render each case, measure it against the ray-traced reference, refuse it when it is over "
+      "its accuracy budget, write the review page (current golden, new frame, difference) into "
+      "--review, then replace tests/golden/<device class>/<case>/ (not with --dry-run)");
+  for (penumbra::cli::Command* c : {&check, &update}) {
+    c->option("--case,--scene", [&](const std::string& v) { o.cases.push_back(v); },
+         "a case name; repeatable (check: default every case)");
+    c->option("--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
+         "render with the shaders of this tree instead of the source tree's");
   }
-  if (o.command != "list" && o.command != "check" && o.command != "update")
-    throw Error("unknown command '" + o.command + "': expected list, check or update");
-  for (int i = 2; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + ": missing value (try --help)");
-      return argv[++i];
-    };
-    if (a == "--case" || a == "--scene")
-      o.cases.push_back(value());
-    else if (a == "--all")
-      o.all = true;
-    else if (a == "--against")
-      o.against = value();
-    else if (a == "--stats")
-      o.stats = true;
-    else if (a == "--dry-run")
-      o.dry_run = true;
-    else if (a == "--report")
-      o.report = value();
-    else if (a == "--review")
-      o.review = value();
-    else if (a == "--shader-dir")
-      o.shader_dir = value();
-    else if (a == "--cache")
-      o.cache_dir = value();
-    else if (a == "--no-cache")
-      o.cache = false;
-    else if (a == "--samples") {
-      const std::string v = value();
-      char* end = nullptr;
-      const long n = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end || n < 1 || n > 1 << 20)
-        throw Error("--samples " + v + ": expected an integer in [1, 1048576]");
-      o.samples = uint32_t(n);
-    } else if (a == "--help" || a == "-h") {
-      usage(stdout);
-      std::exit(0);
-    } else
-      throw Error("unknown argument '" + a + "' (try --help)");
-  }
+  check.option("--report", [&](const std::string& v) { o.report = v; },
+       "where the reports go (default out/golden-check)");
+  check.option("--against", [&](const std::string& v) { o.against = v; },
+       "compare with another device class's goldens (calibration: how far lavapipe and a GPU "
+       "differ)");
+  check.flag("--stats", o.stats,
+                  "per region, the pixels differing by more than 1/255, 0.02, 0.1, 0.25 and 0.5, "
+                  "as CSV lines on stdout");
+  update.flag("--all", o.all, "every case");
+  update.flag("--dry-run", o.dry_run, "measure and write the review page, replace nothing");
+  update.option("--review", [&](const std::string& v) { o.review = v; },
+       "where the review page goes (default out/golden-review)");
+  update.option("--samples",
+       [&](const std::string& v) { o.samples = penumbra::cli::whole("--samples", v, 1, 1u << 20); },
+       "reference rays per receiver in penumbrae, as penumbra-reference takes it (default 256)");
+  update.option("--cache", [&](const std::string& v) { o.cache_dir = v; },
+       "the reference cache, as penumbra-reference takes it");
+  bool no_cache = false;
+  update.flag("--no-cache", no_cache, "trace every time");
+  app.parse(argc, argv);
+  if (no_cache) o.cache = false;
+  o.command = list.parsed() ? "list" : check.parsed() ? "check" : "update";
   if (o.command == "update" && o.cases.empty() && !o.all)
     throw Error("update: name the cases (--case NAME) or pass --all; it never runs implicitly");
   return o;

@@ -24,6 +24,9 @@
 #include <string>
 #include <vector>
 
+
+#include "cli.hpp"
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -109,16 +112,17 @@ int run(int reps, bool fixed_salt) {
 int main(int argc, char** argv) {
   int reps = 9;
   bool fixed_salt = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--reps" && i + 1 < argc)
-      reps = std::max(1, std::atoi(argv[++i]));
-    else if (a == "--same-functions")  // the same salts every run: the second run is warm
-      fixed_salt = true;
-    else {
-      std::fprintf(stderr, "usage: penumbra-harness-bench [--reps N] [--same-functions]\n");
-      return 2;
-    }
+  try {
+    penumbra::cli::Command app("penumbra-harness-bench", "Times the shader-function harness: compile, dispatch, compare.");
+    app.option("--reps",
+        [&](const std::string& v) { reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
+        "repetitions per size (default 9)");
+    app.flag("--same-functions", fixed_salt,
+                 "the same salts every run: a second run is warm");
+    app.parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra-harness-bench: error: %s\n", e.what());
+    return 2;
   }
   try {
     const int rc = run(reps, fixed_salt);

@@ -19,6 +19,10 @@
 #include <thread>
 #include <vector>
 
+#include <tuple>
+
+#include "cli.hpp"
+
 namespace {
 using penumbra::Error;
 namespace ref = penumbra::reference;
@@ -37,42 +41,23 @@ int run(int argc, char** argv) {
   std::vector<std::string> scenes;
   uint32_t repeat = 3, samples = 256, threads = 0, width = 0, height = 0;
   bool full = true;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + ": missing value");
-      return argv[++i];
-    };
-    auto integer = [&](uint32_t lo) {
-      const std::string v = value();
-      char* end = nullptr;
-      const long x = std::strtol(v.c_str(), &end, 10);
-      if (v.empty() || *end || x < long(lo) || x > (1l << 24))
-        throw Error(a + " " + v + ": expected an integer >= " + std::to_string(lo));
-      return uint32_t(x);
-    };
-    if (a == "--scene")
-      scenes.push_back(value());
-    else if (a == "--repeat")
-      repeat = integer(1);
-    else if (a == "--samples")
-      samples = integer(1);
-    else if (a == "--threads")
-      threads = integer(1);
-    else if (a == "--size") {
-      const std::string v = value();
-      if (std::sscanf(v.c_str(), "%ux%u", &width, &height) != 2 || !width || !height)
-        throw Error("--size " + v + ": expected WxH");
-    } else if (a == "--adaptive-only")
-      full = false;
-    else if (a == "--help" || a == "-h") {
-      std::printf(
-          "usage: penumbra-reference-bench [--scene NAME|FILE]... [--repeat N] [--samples N]\n"
-          "                                [--threads N] [--size WxH] [--adaptive-only]\n");
-      return 0;
-    } else
-      throw Error("unknown argument '" + a + "' (try --help)");
-  }
+  penumbra::cli::Command app("penumbra-reference-bench", "Times the ray-traced reference: BVH build, rays per second.");
+  using penumbra::cli::whole;
+  app.option("--scene", [&](const std::string& v) { scenes.push_back(v); },
+       "a shipped scene or a .toml file; repeatable (default: the shipped scenes)");
+  app.option("--repeat", [&](const std::string& v) { repeat = whole("--repeat", v, 1, 1u << 24); },
+       "runs per measurement, the median is reported (default 3)");
+  app.option("--samples", [&](const std::string& v) { samples = whole("--samples", v, 1, 1u << 24); },
+       "rays per receiver in penumbrae (default 256)");
+  app.option("--threads", [&](const std::string& v) { threads = whole("--threads", v, 1, 1u << 24); },
+       "tracing threads (default: all)");
+  app.option("--size",
+       [&](const std::string& v) { std::tie(width, height) = penumbra::cli::size("--size", v, 1, 16384); },
+       "the frame size (default: the scene's)");
+  bool adaptive_only = false;
+  app.flag("--adaptive-only", adaptive_only, "time the adaptive trace alone");
+  app.parse(argc, argv);
+  if (adaptive_only) full = false;
   if (scenes.empty()) scenes = penumbra::scene::shipped_scenes();
   const uint32_t used_threads =
       threads ? threads : std::max(1u, std::thread::hardware_concurrency());

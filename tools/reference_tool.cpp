@@ -23,7 +23,10 @@
 #include <sstream>
 #include <string>
 #include <utility>
+#include <tuple>
 #include <vector>
+
+#include "cli.hpp"
 
 namespace {
 namespace fs = std::filesystem;
@@ -44,147 +47,94 @@ struct Options {
   penumbra::reference::FlickerOptions flicker_options;
 };
 
-void usage(FILE* f) {
-  std::fprintf(
-      f,
-      "usage: penumbra-reference [--scene NAME|FILE] [--out DIR] [--size WxH] [--frame N]\n"
-      "                          [--samples N] [--initial-samples N] [--no-adaptive] [--seed S]\n"
-      "                          [--light NAME]... [--threshold T] [--threads N]\n"
-      "                          [--terminator smooth|geometric]\n"
-      "                          [--cache DIR | --no-cache] [--set KEY=VALUE]...\n"
-      "                          [--flicker PATH[,PATH...]|all] [--flicker-frames N]\n"
-      "                          [--flicker-truth] [--no-failure-modes] [--timing-frames N]\n"
-      "                          [--no-images]\n"
-      "  --scene      a shipped scene (default, grazing, indoor, space) or a .toml file\n"
-      "  --set        override a parameter-table key after loading, e.g.\n"
-      "               --set shadows.constant_bias=0.01 (docs/scenes.md lists the keys)\n"
-      "  --out        where the PNGs and metrics.json go (default out/<scene>/reference)\n"
-      "  --size       the frame size (default: the scene's [render] size)\n"
-      "  --frame      frame index rendered (temporal noise; default 0)\n"
-      "  --samples    rays per receiver in penumbrae (default 256)\n"
-      "  --initial-samples  adaptive: rays after which agreeing receivers stop (default 16)\n"
-      "  --no-adaptive      every receiver gets --samples rays\n"
-      "  --seed       the sample sequence's seed (default 1)\n"
-      "  --light      measure only this light (sun, spot0, point1, ...); repeatable\n"
-      "  --threshold  t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)\n"
-      "  --timing-frames  after measuring, render N frames with a renderer as penumbra-view\n"
-      "               builds it (no visibility output), after a warm-up (0.3-3 s, until the\n"
-      "               frame time settles), and write\n"
-      "               each pass's median GPU ms\n"
-      "               (Vulkan timestamp queries) into metrics.json's \"timings\"\n"
-      "  --no-failure-modes  skip telling acne, leaks and the contact gap apart (their own\n"
-      "               rays; metrics.json's acne, leak and contact_gap_* fields, modes.png)\n"
-      "  --no-images  write metrics.json alone, no PNGs (penumbra-tune's points)\n"
-      "  --threads    tracing threads (default: all)\n"
-      "  --terminator where shadow rays start on smooth-shaded meshes: on the smooth surface\n"
-      "               the vertex normals describe (default) or on the flat triangles\n"
-      "               (docs/accuracy.md, the shadow terminator)\n"
-      "  --flicker    also measure temporal stability along these camera paths (translate-1mm,\n"
-      "               translate-1cm, yaw-0.05deg, sun-0.05deg, or all): the fraction of\n"
-      "               shadow-edge pixels whose visibility changes by more than 8/255 between\n"
-      "               frames, after reprojection; into metrics.json's \"flicker\"\n"
-      "  --flicker-frames  frames per path (default 16)\n"
-      "  --flicker-truth   also trace the reference at every frame of the paths and measure\n"
-      "               its flicker: what the truth itself shows (detail finer than a pixel, a\n"
-      "               turning sun), and the renderer's flicker where the truth held still\n"
-      "  --cache      the reference cache (default $PENUMBRA_REFERENCE_CACHE or\n"
-      "               ~/.cache/penumbra/reference); --no-cache traces every time\n");
-}
-
-uint64_t number(const std::string& flag, const std::string& v, uint64_t lo, uint64_t hi) {
-  char* end = nullptr;
-  errno = 0;
-  const unsigned long long x = std::strtoull(v.c_str(), &end, 10);
-  if (v.empty() || *end != '\0' || errno != 0 || x < lo || x > hi || v[0] == '-')
-    throw Error(flag + " " + v + ": expected an integer in [" + std::to_string(lo) + ", " +
-                std::to_string(hi) + "]");
-  return x;
-}
-
 Options parse(int argc, char** argv) {
   Options o;
   o.measure.failure_modes = true;  // the tool tells the failure modes apart by default
   auto& t = o.measure.trace;
-  bool flicker_truth = false;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + ": missing value (try --help)");
-      return argv[++i];
-    };
-    if (a == "--scene")
-      o.scene = value();
-    else if (a == "--out")
-      o.out = value();
-    else if (a == "--size") {
-      const std::string v = value();
-      const auto x = v.find('x');
-      if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
-      o.width = uint32_t(number("--size", v.substr(0, x), 1, 16384));
-      o.height = uint32_t(number("--size", v.substr(x + 1), 1, 16384));
-    } else if (a == "--frame")
-      o.frame = uint32_t(number(a, value(), 0, 1u << 30));
-    else if (a == "--samples")
-      t.samples = uint32_t(number(a, value(), 1, 1u << 20));
-    else if (a == "--initial-samples")
-      t.initial_samples = uint32_t(number(a, value(), 1, 1u << 20));
-    else if (a == "--no-adaptive")
-      t.adaptive = false;
-    else if (a == "--seed")
-      t.seed = number(a, value(), 0, UINT64_MAX);
-    else if (a == "--light")
-      o.measure.lights.push_back(value());
-    else if (a == "--threshold") {
-      const std::string v = value();
-      char* end = nullptr;
-      const double x = std::strtod(v.c_str(), &end);
-      if (v.empty() || *end != '\0' || !(x > 0.0 && x < 1.0))
-        throw Error("--threshold " + v + ": expected a number in (0, 1)");
-      o.measure.metrics.threshold = x;
-    } else if (a == "--terminator") {
-      const std::string v = value();
-      if (v == "smooth")
-        t.terminator = penumbra::reference::Terminator::smooth;
-      else if (v == "geometric")
-        t.terminator = penumbra::reference::Terminator::geometric;
-      else
-        throw Error("--terminator " + v + ": expected smooth or geometric");
-    } else if (a == "--threads")
-      t.threads = uint32_t(number(a, value(), 1, 1024));
-    else if (a == "--cache")
-      o.cache_dir = value();
-    else if (a == "--no-cache")
-      o.cache = false;
-    else if (a == "--set")
-      o.sets.push_back(penumbra::scene::split_set_flag(value()));
-    else if (a == "--flicker") {
-      const std::string v = value();
-      if (v == "all") {
-        o.flicker = penumbra::reference::standard_paths();
-      } else {
-        size_t start = 0;
-        while (start <= v.size()) {
-          const size_t comma = std::min(v.find(',', start), v.size());
-          o.flicker.push_back(penumbra::reference::find_path(v.substr(start, comma - start)));
-          start = comma + 1;
-        }
-      }
-    } else if (a == "--flicker-frames")
-      o.flicker_options.frames = uint32_t(number(a, value(), 2, 10000));
-    else if (a == "--flicker-truth")
-      flicker_truth = true;
-    else if (a == "--timing-frames")
-      o.timing_frames = uint32_t(number(a, value(), 1, 10000));
-    else if (a == "--no-failure-modes")
-      o.measure.failure_modes = false;
-    else if (a == "--no-images")
-      o.images = false;
-    else if (a == "--help" || a == "-h") {
-      usage(stdout);
-      std::exit(0);
-    } else
-      throw Error("unknown argument '" + a + "' (try --help)");
-  }
+  bool flicker_truth = false, no_adaptive = false, no_failure_modes = false, no_images = false,
+       no_cache = false;
+  penumbra::cli::Command app("penumbra-reference", "Traces a scene's shadows with Embree and measures the renderer against them.");
+  using penumbra::cli::whole;
+  app.option("--scene", [&](const std::string& v) { o.scene = v; },
+       "a shipped scene (default, grazing, indoor, space) or a .toml file");
+  app.option("--set",
+       [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
+       "override a parameter-table key after loading, e.g. "
+       "--set shadows.constant_bias=0.01 (docs/scenes.md lists the keys); repeatable");
+  app.option("--out", [&](const std::string& v) { o.out = v; },
+       "where the PNGs and metrics.json go (default out/<scene>/reference)");
+  app.option("--size",
+       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384); },
+       "the frame size (default: the scene's [render] size)");
+  app.option("--frame", [&](const std::string& v) { o.frame = whole("--frame", v, 0, 1u << 30); },
+       "frame index rendered (temporal noise; default 0)");
+  app.option("--samples",
+       [&](const std::string& v) { t.samples = whole("--samples", v, 1, 1u << 20); },
+       "rays per receiver in penumbrae (default 256)");
+  app.option("--initial-samples",
+       [&](const std::string& v) { t.initial_samples = whole("--initial-samples", v, 1, 1u << 20); },
+       "adaptive: rays after which agreeing receivers stop (default 16)");
+  app.flag("--no-adaptive", no_adaptive, "every receiver gets --samples rays");
+  app.option("--seed",
+       [&](const std::string& v) { t.seed = penumbra::cli::whole64("--seed", v, 0, UINT64_MAX); },
+       "the sample sequence's seed (default 1)");
+  app.option("--light", [&](const std::string& v) { o.measure.lights.push_back(v); },
+       "measure only this light (sun, spot0, point1, ...); repeatable");
+  app.option("--threshold", [&](const std::string& v) {
+    char* end = nullptr;
+    const double x = std::strtod(v.c_str(), &end);
+    if (v.empty() || *end != '\0' || !(x > 0.0 && x < 1.0))
+      throw Error("--threshold " + v + ": expected a number in (0, 1)");
+    o.measure.metrics.threshold = x;
+  }, "t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)");
+  app.option("--terminator", [&](const std::string& v) {
+    t.terminator = penumbra::cli::one_of("--terminator", v, {"smooth", "geometric"}) == "smooth"
+                       ? penumbra::reference::Terminator::smooth
+                       : penumbra::reference::Terminator::geometric;
+  }, "where shadow rays start on smooth-shaded meshes: on the smooth surface the vertex normals "
+     "describe (smooth, the default) or on the flat triangles (geometric; docs/accuracy.md, the "
+     "shadow terminator)");
+  app.option("--threads", [&](const std::string& v) { t.threads = whole("--threads", v, 1, 1024); },
+       "tracing threads (default: all)");
+  app.option("--cache", [&](const std::string& v) { o.cache_dir = v; },
+       "the reference cache (default $PENUMBRA_REFERENCE_CACHE or ~/.cache/penumbra/reference)");
+  app.flag("--no-cache", no_cache, "trace every time");
+  app.option("--flicker", [&](const std::string& v) {
+    if (v == "all") {
+      o.flicker = penumbra::reference::standard_paths();
+      return;
+    }
+    size_t start = 0;
+    while (start <= v.size()) {
+      const size_t comma = std::min(v.find(',', start), v.size());
+      o.flicker.push_back(penumbra::reference::find_path(v.substr(start, comma - start)));
+      start = comma + 1;
+    }
+  }, "also measure temporal stability along these camera paths "
+     "(translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg): the fraction of shadow-edge "
+     "pixels whose visibility changes by more than 8/255 between frames, after reprojection; "
+     "into metrics.json's \"flicker\"");
+  app.option("--flicker-frames",
+       [&](const std::string& v) { o.flicker_options.frames = whole("--flicker-frames", v, 2, 10000); },
+       "frames per path (default 16)");
+  app.flag("--flicker-truth", flicker_truth,
+               "also trace the reference at every frame of the paths and measure its flicker: "
+               "what the truth itself shows (detail finer than a pixel, a turning sun), and the "
+               "renderer's flicker where the truth held still");
+  app.option("--timing-frames",
+       [&](const std::string& v) { o.timing_frames = whole("--timing-frames", v, 1, 10000); },
+       "after measuring, render N frames with a renderer as penumbra-view builds it (no "
+       "visibility output), after a warm-up (0.3-3 s, until the frame time settles), and write "
+       "each pass's median GPU ms (Vulkan timestamp queries) into metrics.json's \"timings\"");
+  app.flag("--no-failure-modes", no_failure_modes,
+               "skip telling acne, leaks and the contact gap apart (their own rays; "
+               "metrics.json's acne, leak and contact_gap_* fields, modes.png)");
+  app.flag("--no-images", no_images, "write metrics.json alone, no PNGs (penumbra-tune's points)");
+  app.parse(argc, argv);
+  if (no_adaptive) t.adaptive = false;
+  if (no_cache) o.cache = false;
+  if (no_failure_modes) o.measure.failure_modes = false;
+  if (no_images) o.images = false;
   // The truth along the paths takes the measure's trace options (samples, seed, threads).
   if (flicker_truth) o.flicker_options.truth = t;
   return o;

@@ -40,8 +40,10 @@
 #include <sstream>
 #include <string>
 #include <thread>
+#include <tuple>
 #include <vector>
 
+#include "cli.hpp"
 #include "session.hpp"
 
 namespace {
@@ -220,60 +222,38 @@ struct Options {
   std::vector<std::string> modes{"new-loop", "undo-loop", "new-change", "undo-change"};
 };
 
-std::vector<std::string> split_commas(const std::string& v) {
-  std::vector<std::string> out;
-  std::stringstream in(v);
-  for (std::string item; std::getline(in, item, ',');)
-    if (!item.empty()) out.push_back(item);
-  return out;
-}
-
 Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + ": missing value");
-      return argv[++i];
-    };
-    if (a == "--scene")
-      o.scene = value();
-    else if (a == "--size") {
-      const std::string v = value();
-      if (std::sscanf(v.c_str(), "%ux%u", &o.width, &o.height) != 2 || !o.width || !o.height)
-        throw Error("--size " + v + ": expected WxH");
-    } else if (a == "--edits") {
-      o.edits = std::atoi(value().c_str());
-      if (o.edits < 2) throw Error("--edits: expected at least 2");
-    } else if (a == "--file")
-      o.only.push_back(value());
-    else if (a == "--shader-dir")
-      o.shader_dir = value();
-    else if (a == "--all")
-      o.all = true;
-    else if (a == "--modes") {
-      const std::string v = value();
-      o.modes = split_commas(v);
-      for (const auto& m : o.modes)
-        if (m != "new-loop" && m != "undo-loop" && m != "new-change" && m != "undo-change")
-          throw Error("--modes " + v + ": '" + m +
-                      "' is not one of new-loop, undo-loop, new-change, undo-change");
-      if (o.modes.empty()) throw Error("--modes: expected at least one mode");
-    } else if (a == "--help" || a == "-h") {
-      std::printf(
-          "usage: penumbra-reload-bench [--scene NAME] [--size WxH] [--edits N] [--file F]...\n"
-          "                             [--shader-dir DIR] [--all] [--modes M,...]\n"
-          "  defaults: default scene, 640x360, 10 edits per file and mode; --file limits the\n"
-          "  files (penumbra/pcf.glsl, penumbra/shadow.glsl, penumbra/noise.glsl,\n"
-          "  contact_shadows.comp, or with --all any file under penumbra/ or render/)\n"
-          "  --all    every file of the tree's penumbra/ and render/, each in the first scene\n"
-          "           that reads it (default, indoor, space, grazing, then the default scene\n"
-          "           with the pcss and evsm2 filters; --scene: that scene only)\n"
-          "  --modes  of new-loop, undo-loop, new-change, undo-change (default: all four)\n");
-      std::exit(0);
-    } else
-      throw Error("unknown argument '" + a + "'");
-  }
+  penumbra::cli::Command app("penumbra-reload-bench", "Hot-reload latency: file event -> end of the first frame with the new pipelines.");
+  app.footer(
+      "Defaults: the default scene at 640x360, 10 edits per file and mode, four files with "
+      "hand-picked edits (penumbra/pcf.glsl, penumbra/shadow.glsl, penumbra/noise.glsl, "
+      "contact_shadows.comp); --all: every file (docs/hot-reload.md).");
+  app.option("--scene", [&](const std::string& v) { o.scene = v; },
+       "the scene (with --all: only this one, instead of the first that reads each file)");
+  app.option("--size",
+       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 16, 16384); },
+       "the render size (default 640x360)");
+  app.option("--edits",
+       [&](const std::string& v) { o.edits = int(penumbra::cli::whole("--edits", v, 2, 100000)); },
+       "saves per file and mode (default 10)");
+  app.option("--file", [&](const std::string& v) { o.only.push_back(v); },
+       "only this file (repeatable); with --all any file under penumbra/ or render/");
+  app.option("--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
+       "the shader tree to copy and edit (default: the repo's shaders/)");
+  app.flag("--all", o.all,
+               "every file of the tree's penumbra/ and render/, each in the first setting that "
+               "reads it (default, indoor, space, grazing, then the default scene with the pcss "
+               "and evsm2 filters, then an analytic-sphere test scene)");
+  app.option("--modes", [&](const std::string& v) {
+    o.modes.clear();
+    std::stringstream in(v);
+    for (std::string m; std::getline(in, m, ',');)
+      o.modes.push_back(
+          penumbra::cli::one_of("--modes", m, {"new-loop", "undo-loop", "new-change", "undo-change"}));
+    if (o.modes.empty()) throw Error("--modes: expected at least one mode");
+  }, "of new-loop, undo-loop, new-change, undo-change (default: all four)");
+  app.parse(argc, argv);
   return o;
 }
 

@@ -19,6 +19,9 @@
 #include <string>
 #include <vector>
 
+
+#include "cli.hpp"
+
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -106,14 +109,15 @@ int run(int reps) {
 
 int main(int argc, char** argv) {
   int reps = 9;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    if (a == "--reps" && i + 1 < argc) {
-      reps = std::max(1, std::atoi(argv[++i]));
-    } else {
-      std::fprintf(stderr, "usage: penumbra-startup-bench [--reps N]\n");
-      return 2;
-    }
+  try {
+    penumbra::cli::Command app("penumbra-startup-bench", "Times Vulkan start-up, a first dispatch cold and warm, and a steady one.");
+    app.option("--reps",
+        [&](const std::string& v) { reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
+        "repetitions (default 9)");
+    app.parse(argc, argv);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "penumbra-startup-bench: error: %s\n", e.what());
+    return 2;
   }
   try {
     return run(reps);

@@ -35,6 +35,10 @@
 #include <string>
 #include <vector>
 
+#include <tuple>
+
+#include "cli.hpp"
+
 namespace {
 
 using penumbra::Error;
@@ -54,45 +58,19 @@ struct Push {
   float texels_per_pixel;
 };
 
-uint32_t parse_positive(const std::string& flag, const std::string& text, uint32_t max) {
-  size_t used = 0;
-  long v = -1;
-  try {
-    v = std::stol(text, &used);
-  } catch (const std::exception&) {
-  }
-  if (used != text.size() || v < 1 || v > long(max))
-    throw Error(flag + " " + text + ": expected an integer in [1, " + std::to_string(max) + "]");
-  return uint32_t(v);
-}
-
 Options parse(int argc, char** argv) {
   Options o;
-  for (int i = 1; i < argc; ++i) {
-    const std::string a = argv[i];
-    auto value = [&]() -> std::string {
-      if (i + 1 >= argc) throw Error(a + " needs a value");
-      return argv[++i];
-    };
-    if (a == "--size") {
-      const std::string v = value();
-      const size_t x = v.find('x');
-      if (x == std::string::npos) throw Error("--size " + v + ": expected WxH, e.g. 1280x720");
-      o.width = parse_positive("--size", v.substr(0, x), 16384);
-      o.height = parse_positive("--size", v.substr(x + 1), 16384);
-    } else if (a == "--map") {
-      o.map = parse_positive("--map", value(), 16384);
-    } else if (a == "--reps") {
-      o.reps = int(parse_positive("--reps", value(), 1000));
-    } else if (a == "--out") {
-      o.out = value();
-    } else if (a == "--help" || a == "-h") {
-      std::printf("usage: penumbra-texel-rate [--size WxH] [--map N] [--reps N] [--out FILE]\n");
-      std::exit(0);
-    } else {
-      throw Error("unknown argument '" + a + "' (--help lists them)");
-    }
-  }
+  penumbra::cli::Command app("penumbra-texel-rate", "Measures the device's texel-fetch rates for the shadow filters.");
+  app.option("--size",
+       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384); },
+       "the dispatch size");
+  app.option("--map", [&](const std::string& v) { o.map = penumbra::cli::whole("--map", v, 1, 16384); },
+       "the shadow map's size in texels");
+  app.option("--reps",
+       [&](const std::string& v) { o.reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
+       "repetitions per measurement");
+  app.option("--out", [&](const std::string& v) { o.out = v; }, "the JSON result's file");
+  app.parse(argc, argv);
   return o;
 }
 
