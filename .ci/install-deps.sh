@@ -8,7 +8,7 @@ packages=(
   libglm-dev libglfw3-dev libgtest-dev libgmock-dev xvfb libstb-dev
   libtomlplusplus-dev libtinyobjloader-dev glmark2-data libimgui-dev libembree-dev libpng-dev
   libcli11-dev
-  python3 python3-matplotlib python3-optuna python3-distributed lcov
+  python3 python3-matplotlib python3-pil python3-optuna python3-distributed lcov
   chromium chromium-driver python3-selenium cmark-gfm
 )
 missing=()

@@ -7,7 +7,7 @@
 // the renderer or only a new frame, its documentation line and an accessor on Scene. The scene
 // file reader, the runtime's set/get, the ImGui panel, penumbra-view's --view/--filter names and
 // the key tables of docs/scenes.md all come from it (a test walks it against each of them).
-// Adding a key is one row here (and its packing in src/render/passes/frame_pack.cpp).
+// Adding a key is one row here (and its packing in src/render/frame_pack.cpp).
 //
 // Defaults are not repeated here: they are the member initializers of the structs in scene.hpp,
 // read back from a default Scene (default_text).
