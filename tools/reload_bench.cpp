@@ -32,6 +32,7 @@
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/gpu/context.hpp>
+#include <penumbra/gpu/validation.hpp>
 #include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -444,11 +445,15 @@ int run(int argc, char** argv) {
           throw Error("--file " + f + ": not a file of the tree's penumbra/ or render/");
       files = o.only;
     }
-    std::vector<Probe> probes;
-    for (const Setting& setting : settings)
-      probes.emplace_back(ctx, shaders, setting, o.width, o.height);
+    // Each setting's pipelines, built when a file first needs them (in order: --file F often
+    // needs the default scene's alone).
+    std::vector<std::unique_ptr<Probe>> built(settings.size());
+    auto probe = [&](size_t i) -> Probe& {
+      if (!built[i]) built[i] = std::make_unique<Probe>(ctx, shaders, settings[i], o.width, o.height);
+      return *built[i];
+    };
     // Each file in the first setting where its edit changes code, else the first that reads it.
-    std::vector<std::vector<Target>> chosen(probes.size());
+    std::vector<std::vector<Target>> chosen(settings.size());
     std::vector<std::string> unread;
     for (const auto& f : files) {
       const fs::path file = fs::weakly_canonical(shaders / f);
@@ -457,14 +462,14 @@ int run(int argc, char** argv) {
       const size_t tries = std::min<size_t>(4, std::max<size_t>(1, float_literals(original).size()));
       std::optional<Target> first;
       int pick = -1;
-      for (size_t i = 0; i < probes.size() && pick < 0; ++i) {
-        if (!probes[i].read.count(f)) continue;
+      for (size_t i = 0; i < settings.size() && pick < 0; ++i) {
+        if (!probe(i).read.count(f)) continue;
         for (size_t n = 0; n < tries && pick < 0; ++n) {
           const Target t = auto_target(f, original, n);
           if (!first) first = t, pick = -2 - int(i);  // the fallback: the first that reads it
           if (t.what.rfind("a comment", 0) == 0) break;
           // k = -1: a value the measured edits (k >= 1) never use.
-          if (probes[i].changes_code(file, original, replaced(original, t.needle, t.edit(-1), f))) {
+          if (probe(i).changes_code(file, original, replaced(original, t.needle, t.edit(-1), f))) {
             chosen[i].push_back(t);
             pick = int(i);
           }
@@ -475,9 +480,9 @@ int run(int argc, char** argv) {
       else if (pick < 0)
         chosen[size_t(-2 - pick)].push_back(*first);
     }
-    for (size_t i = 0; i < probes.size(); ++i)
-      if (!chosen[i].empty()) plan.push_back({probes[i].setting, chosen[i]});
-    probes.clear();
+    for (size_t i = 0; i < settings.size(); ++i)
+      if (!chosen[i].empty()) plan.push_back({settings[i], chosen[i]});
+    built.clear();
     for (const auto& f : unread)
       std::printf("  %-34s read by no pipeline of the settings tried: not measured\n", f.c_str());
   }
@@ -517,6 +522,12 @@ int run(int argc, char** argv) {
       "new pipelines = waited (debounce + the frame in flight) + reload (compile + "
       "pipelines) + frame)\n",
       o.edits);
+  if (ctx.validation_enabled()) {  // PENUMBRA_VALIDATION=1: any message fails the run
+    const auto messages = ctx.validation_sink().take();
+    std::printf("validation: %zu messages\n", messages.size());
+    for (const auto& m : messages) std::fprintf(stderr, "  %s\n", penumbra::gpu::to_string(m).c_str());
+    if (!messages.empty()) return 1;
+  }
   return 0;
 }
 
