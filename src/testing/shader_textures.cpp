@@ -41,26 +41,37 @@ VkFormat float_format(uint32_t channels, bool half, const char* what) {
 
 // ---- textures --------------------------------------------------------------------------------
 
-std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
-                                            std::span<const float> depth) {
-  auto& ctx = shared_context();
-  gpu::ImageDesc d;
+namespace {
+
+// The kind, size and layers of a texture's image (a cube has six layers per cube), refused
+// when it is a cube array and the device has none. `what` names the desc in the error.
+template <class Desc>
+void set_shape(gpu::ImageDesc& d, const Desc& desc, const gpu::Context& ctx, const char* what) {
   const bool array = desc.array || desc.layers > 1;
   d.kind = desc.cube ? (array ? gpu::ImageKind::cube_array : gpu::ImageKind::cube)
            : array   ? gpu::ImageKind::image_2d_array
                      : gpu::ImageKind::image_2d;
+  if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
+    throw Error(std::string(what) + ": device " + ctx.info().name +
+                " has no cube-map arrays (imageCubeArray)");
+  d.width = desc.width;
+  d.height = desc.height;
+  d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
+}
+
+}  // namespace
+
+std::shared_ptr<Texture> make_depth_texture(const DepthTextureDesc& desc,
+                                            std::span<const float> depth) {
+  auto& ctx = shared_context();
+  gpu::ImageDesc d;
   if (desc.format != VK_FORMAT_D32_SFLOAT && desc.format != VK_FORMAT_D16_UNORM &&
       desc.format != VK_FORMAT_X8_D24_UNORM_PACK32) {
     throw Error("DepthTextureDesc.format = " + std::to_string(int(desc.format)) +
                 ": must be D32_SFLOAT, D16_UNORM or X8_D24_UNORM_PACK32");
   }
   d.format = desc.format;
-  d.width = desc.width;
-  d.height = desc.height;
-  d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
-  if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
-    throw Error("DepthTextureDesc: device " + ctx.info().name +
-                " has no cube-map arrays (imageCubeArray)");
+  set_shape(d, desc, ctx, "DepthTextureDesc");
   d.usage = VK_IMAGE_USAGE_SAMPLED_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
   if (!desc.sampler.compare && desc.sampler.filter == VK_FILTER_LINEAR &&
       !ctx.info().linear_filter_d32) {
@@ -101,17 +112,8 @@ std::shared_ptr<Texture> make_float_texture(const FloatTextureDesc& desc,
                                             std::span<const float> texels) {
   auto& ctx = shared_context();
   gpu::ImageDesc d;
-  const bool array = desc.array || desc.layers > 1;
-  d.kind = desc.cube ? (array ? gpu::ImageKind::cube_array : gpu::ImageKind::cube)
-           : array   ? gpu::ImageKind::image_2d_array
-                     : gpu::ImageKind::image_2d;
-  if (d.kind == gpu::ImageKind::cube_array && !ctx.info().image_cube_array)
-    throw Error("FloatTextureDesc: device " + ctx.info().name +
-                " has no cube-map arrays (imageCubeArray)");
+  set_shape(d, desc, ctx, "FloatTextureDesc");
   d.format = float_format(desc.channels, desc.half, "FloatTextureDesc");
-  d.width = desc.width;
-  d.height = desc.height;
-  d.layers = desc.cube ? 6 * std::max(desc.layers, 1u) : desc.layers;
   if (desc.sampler.filter == VK_FILTER_LINEAR) {
     VkFormatProperties fp{};
     vkGetPhysicalDeviceFormatProperties(ctx.physical_device(), d.format, &fp);
