@@ -12,7 +12,6 @@
 #include <string>
 #include <vector>
 
-
 #include "cli.hpp"
 
 namespace {
@@ -31,7 +30,8 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  penumbra::cli::Command app("penumbra-golden", "The reviewed goldens of tests/golden: list, check and update them.");
+  penumbra::cli::Command app("penumbra-golden",
+                             "The reviewed goldens of tests/golden: list, check and update them.");
   app.footer("$PENUMBRA_GOLDEN_DIR replaces tests/golden.");
   penumbra::cli::Command& list = app.subcommand(
       "list", "the cases (tests/golden/cases.toml) and the device classes with goldens");
@@ -46,28 +46,35 @@ Options parse(int argc, char** argv) {
       "its accuracy budget, write the review page (current golden, new frame, difference) into "
       "--review, then replace tests/golden/<device class>/<case>/ (not with --dry-run)");
   for (penumbra::cli::Command* c : {&check, &update}) {
-    c->option("--case,--scene", [&](const std::string& v) { o.cases.push_back(v); },
-         "a case name; repeatable (check: default every case)");
-    c->option("--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
-         "render with the shaders of this tree instead of the source tree's");
+    c->option(
+        "--case,--scene", [&](const std::string& v) { o.cases.push_back(v); },
+        "a case name; repeatable (check: default every case)");
+    c->option(
+        "--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
+        "render with the shaders of this tree instead of the source tree's");
   }
-  check.option("--report", [&](const std::string& v) { o.report = v; },
-       "where the reports go (default out/golden-check)");
-  check.option("--against", [&](const std::string& v) { o.against = v; },
-       "compare with another device class's goldens (calibration: how far lavapipe and a GPU "
-       "differ)");
+  check.option(
+      "--report", [&](const std::string& v) { o.report = v; },
+      "where the reports go (default out/golden-check)");
+  check.option(
+      "--against", [&](const std::string& v) { o.against = v; },
+      "compare with another device class's goldens (calibration: how far lavapipe and a GPU "
+      "differ)");
   check.flag("--stats", o.stats,
-                  "per region, the pixels differing by more than 1/255, 0.02, 0.1, 0.25 and 0.5, "
-                  "as CSV lines on stdout");
+             "per region, the pixels differing by more than 1/255, 0.02, 0.1, 0.25 and 0.5, "
+             "as CSV lines on stdout");
   update.flag("--all", o.all, "every case");
   update.flag("--dry-run", o.dry_run, "measure and write the review page, replace nothing");
-  update.option("--review", [&](const std::string& v) { o.review = v; },
-       "where the review page goes (default out/golden-review)");
-  update.option("--samples",
-       [&](const std::string& v) { o.samples = penumbra::cli::whole("--samples", v, 1, 1u << 20); },
-       "reference rays per receiver in penumbrae, as penumbra-reference takes it (default 256)");
-  update.option("--cache", [&](const std::string& v) { o.cache_dir = v; },
-       "the reference cache, as penumbra-reference takes it");
+  update.option(
+      "--review", [&](const std::string& v) { o.review = v; },
+      "where the review page goes (default out/golden-review)");
+  update.option(
+      "--samples",
+      [&](const std::string& v) { o.samples = penumbra::cli::whole("--samples", v, 1, 1u << 20); },
+      "reference rays per receiver in penumbrae, as penumbra-reference takes it (default 256)");
+  update.option(
+      "--cache", [&](const std::string& v) { o.cache_dir = v; },
+      "the reference cache, as penumbra-reference takes it");
   bool no_cache = false;
   update.flag("--no-cache", no_cache, "trace every time");
   app.parse(argc, argv);
@@ -83,8 +90,8 @@ std::vector<golden::Case> select(const std::vector<golden::Case>& all, const Opt
   if (o.cases.empty()) return all;
   std::vector<golden::Case> out;
   for (const auto& name : o.cases) {
-    const auto it = std::find_if(all.begin(), all.end(),
-                                 [&](const golden::Case& c) { return c.name == name; });
+    const auto it =
+        std::find_if(all.begin(), all.end(), [&](const golden::Case& c) { return c.name == name; });
     if (it == all.end()) {
       std::string names;
       for (const auto& c : all) names += (names.empty() ? "" : ", ") + c.name;
@@ -126,11 +133,11 @@ int run(int argc, char** argv) {
   int failed = 0;
   std::string index;  // check: one line per case on the report's index.html
   if (o.stats)
-    std::printf("stats,case,image,region,pixels,over_1/255,over_0.02,over_0.1,over_0.25,over_0.5,"
-                "worst\n");
+    std::printf(
+        "stats,case,image,region,pixels,over_1/255,over_0.02,over_0.1,over_0.25,over_0.5,"
+        "worst\n");
   for (const auto& c : cases) {
-    const std::string golden_class =
-        o.command == "check" && !o.against.empty() ? o.against : cls;
+    const std::string golden_class = o.command == "check" && !o.against.empty() ? o.against : cls;
     const fs::path dir = root / golden_class / c.name;
     const auto old = golden::load_golden(dir);
     if (o.command == "check") {
@@ -142,15 +149,17 @@ int run(int argc, char** argv) {
       }
       const golden::Frame frame = golden::render_case(ctx, c, o.shader_dir);
       const golden::Comparison cmp = golden::compare(old->frame, frame);
-      const fs::path page = golden::write_report(
-          o.report / c.name, {c.name + " (" + cls + " against " + golden_class + ")", "golden by " + old->device,
-           "golden", "actual"},
-          old->frame, frame, cmp);
+      const fs::path page =
+          golden::write_report(o.report / c.name,
+                               {c.name + " (" + cls + " against " + golden_class + ")",
+                                "golden by " + old->device, "golden", "actual"},
+                               old->frame, frame, cmp);
       std::printf("%s: %s\n%s  report: %s\n", c.name.c_str(), cmp.passed() ? "passed" : "FAILED",
                   cmp.summary().c_str(), page.string().c_str());
       failed += !cmp.passed();
-      index += "<li><a href=\"" + c.name + "/index.html\">" + c.name + "</a>: " +
-               (cmp.passed() ? "passed" : "<b style=\"color:#b00\">FAILED</b>") + "</li>\n";
+      index += "<li><a href=\"" + c.name + "/index.html\">" + c.name +
+               "</a>: " + (cmp.passed() ? "passed" : "<b style=\"color:#b00\">FAILED</b>") +
+               "</li>\n";
       if (o.stats)
         for (const auto& r : cmp.results)
           std::printf("stats,%s,%s,%s,%llu,%llu,%llu,%llu,%llu,%llu,%.4f\n", c.name.c_str(),
@@ -174,8 +183,7 @@ int run(int argc, char** argv) {
     const fs::path page = golden::write_report(
         o.review / c.name,
         {"update " + c.name + " (" + cls + ")",
-         old ? "current golden by " + old->device + " against the new frame on " +
-                   ctx.info().name
+         old ? "current golden by " + old->device + " against the new frame on " + ctx.info().name
              : "no golden yet for " + cls + ": the new frame on " + ctx.info().name,
          "current golden", "new frame"},
         old ? std::optional<golden::Frame>(old->frame) : std::nullopt, m.frame, cmp);
@@ -205,9 +213,11 @@ int run(int argc, char** argv) {
   if (o.command == "check" && !index.empty()) {
     const fs::path page = o.report / "index.html";
     penumbra::write_file_atomic(
-        page, "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>golden "
-              "check</title></head><body style=\"font:14px system-ui,sans-serif\"><h1>golden "
-              "check (" + cls + ")</h1><ul>\n" + index + "</ul></body></html>\n");
+        page,
+        "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>golden "
+        "check</title></head><body style=\"font:14px system-ui,sans-serif\"><h1>golden "
+        "check (" +
+            cls + ")</h1><ul>\n" + index + "</ul></body></html>\n");
     std::printf("report: %s\n", page.string().c_str());
   }
   if (ctx.validation_enabled() && ctx.validation_sink().total_seen() != 0) {

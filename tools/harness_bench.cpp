@@ -24,7 +24,6 @@
 #include <string>
 #include <vector>
 
-
 #include "cli.hpp"
 
 namespace {
@@ -113,12 +112,13 @@ int main(int argc, char** argv) {
   int reps = 9;
   bool fixed_salt = false;
   try {
-    penumbra::cli::Command app("penumbra-harness-bench", "Times the shader-function harness: compile, dispatch, compare.");
-    app.option("--reps",
+    penumbra::cli::Command app("penumbra-harness-bench",
+                               "Times the shader-function harness: compile, dispatch, compare.");
+    app.option(
+        "--reps",
         [&](const std::string& v) { reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
         "repetitions per size (default 9)");
-    app.flag("--same-functions", fixed_salt,
-                 "the same salts every run: a second run is warm");
+    app.flag("--same-functions", fixed_salt, "the same salts every run: a second run is warm");
     app.parse(argc, argv);
   } catch (const std::exception& e) {
     std::fprintf(stderr, "penumbra-harness-bench: error: %s\n", e.what());

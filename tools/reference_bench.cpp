@@ -17,9 +17,8 @@
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <thread>
-#include <vector>
-
 #include <tuple>
+#include <vector>
 
 #include "cli.hpp"
 
@@ -41,19 +40,27 @@ int run(int argc, char** argv) {
   std::vector<std::string> scenes;
   uint32_t repeat = 3, samples = 256, threads = 0, width = 0, height = 0;
   bool full = true;
-  penumbra::cli::Command app("penumbra-reference-bench", "Times the ray-traced reference: BVH build, rays per second.");
+  penumbra::cli::Command app("penumbra-reference-bench",
+                             "Times the ray-traced reference: BVH build, rays per second.");
   using penumbra::cli::whole;
-  app.option("--scene", [&](const std::string& v) { scenes.push_back(v); },
-       "a shipped scene or a .toml file; repeatable (default: the shipped scenes)");
-  app.option("--repeat", [&](const std::string& v) { repeat = whole("--repeat", v, 1, 1u << 24); },
-       "runs per measurement, the median is reported (default 3)");
-  app.option("--samples", [&](const std::string& v) { samples = whole("--samples", v, 1, 1u << 24); },
-       "rays per receiver in penumbrae (default 256)");
-  app.option("--threads", [&](const std::string& v) { threads = whole("--threads", v, 1, 1u << 24); },
-       "tracing threads (default: all)");
-  app.option("--size",
-       [&](const std::string& v) { std::tie(width, height) = penumbra::cli::size("--size", v, 1, 16384); },
-       "the frame size (default: the scene's)");
+  app.option(
+      "--scene", [&](const std::string& v) { scenes.push_back(v); },
+      "a shipped scene or a .toml file; repeatable (default: the shipped scenes)");
+  app.option(
+      "--repeat", [&](const std::string& v) { repeat = whole("--repeat", v, 1, 1u << 24); },
+      "runs per measurement, the median is reported (default 3)");
+  app.option(
+      "--samples", [&](const std::string& v) { samples = whole("--samples", v, 1, 1u << 24); },
+      "rays per receiver in penumbrae (default 256)");
+  app.option(
+      "--threads", [&](const std::string& v) { threads = whole("--threads", v, 1, 1u << 24); },
+      "tracing threads (default: all)");
+  app.option(
+      "--size",
+      [&](const std::string& v) {
+        std::tie(width, height) = penumbra::cli::size("--size", v, 1, 16384);
+      },
+      "the frame size (default: the scene's)");
   bool adaptive_only = false;
   app.flag("--adaptive-only", adaptive_only, "time the adaptive trace alone");
   app.parse(argc, argv);

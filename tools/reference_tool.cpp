@@ -22,8 +22,8 @@
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
 #include <string>
-#include <utility>
 #include <tuple>
+#include <utility>
 #include <vector>
 
 #include "cli.hpp"
@@ -53,82 +53,108 @@ Options parse(int argc, char** argv) {
   auto& t = o.measure.trace;
   bool flicker_truth = false, no_adaptive = false, no_failure_modes = false, no_images = false,
        no_cache = false;
-  penumbra::cli::Command app("penumbra-reference", "Traces a scene's shadows with Embree and measures the renderer against them.");
+  penumbra::cli::Command app(
+      "penumbra-reference",
+      "Traces a scene's shadows with Embree and measures the renderer against them.");
   using penumbra::cli::whole;
-  app.option("--scene", [&](const std::string& v) { o.scene = v; },
-       "a shipped scene (default, grazing, indoor, space) or a .toml file");
-  app.option("--set",
-       [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
-       "override a parameter-table key after loading, e.g. "
-       "--set shadows.constant_bias=0.01 (docs/scenes.md lists the keys); repeatable");
-  app.option("--out", [&](const std::string& v) { o.out = v; },
-       "where the PNGs and metrics.json go (default out/<scene>/reference)");
-  app.option("--size",
-       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384); },
-       "the frame size (default: the scene's [render] size)");
-  app.option("--frame", [&](const std::string& v) { o.frame = whole("--frame", v, 0, 1u << 30); },
-       "frame index rendered (temporal noise; default 0)");
-  app.option("--samples",
-       [&](const std::string& v) { t.samples = whole("--samples", v, 1, 1u << 20); },
-       "rays per receiver in penumbrae (default 256)");
-  app.option("--initial-samples",
-       [&](const std::string& v) { t.initial_samples = whole("--initial-samples", v, 1, 1u << 20); },
-       "adaptive: rays after which agreeing receivers stop (default 16)");
+  app.option(
+      "--scene", [&](const std::string& v) { o.scene = v; },
+      "a shipped scene (default, grazing, indoor, space) or a .toml file");
+  app.option(
+      "--set", [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
+      "override a parameter-table key after loading, e.g. "
+      "--set shadows.constant_bias=0.01 (docs/scenes.md lists the keys); repeatable");
+  app.option(
+      "--out", [&](const std::string& v) { o.out = v; },
+      "where the PNGs and metrics.json go (default out/<scene>/reference)");
+  app.option(
+      "--size",
+      [&](const std::string& v) {
+        std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384);
+      },
+      "the frame size (default: the scene's [render] size)");
+  app.option(
+      "--frame", [&](const std::string& v) { o.frame = whole("--frame", v, 0, 1u << 30); },
+      "frame index rendered (temporal noise; default 0)");
+  app.option(
+      "--samples", [&](const std::string& v) { t.samples = whole("--samples", v, 1, 1u << 20); },
+      "rays per receiver in penumbrae (default 256)");
+  app.option(
+      "--initial-samples",
+      [&](const std::string& v) { t.initial_samples = whole("--initial-samples", v, 1, 1u << 20); },
+      "adaptive: rays after which agreeing receivers stop (default 16)");
   app.flag("--no-adaptive", no_adaptive, "every receiver gets --samples rays");
-  app.option("--seed",
-       [&](const std::string& v) { t.seed = penumbra::cli::whole64("--seed", v, 0, UINT64_MAX); },
-       "the sample sequence's seed (default 1)");
-  app.option("--light", [&](const std::string& v) { o.measure.lights.push_back(v); },
-       "measure only this light (sun, spot0, point1, ...); repeatable");
-  app.option("--threshold", [&](const std::string& v) {
-    char* end = nullptr;
-    const double x = std::strtod(v.c_str(), &end);
-    if (v.empty() || *end != '\0' || !(x > 0.0 && x < 1.0))
-      throw Error("--threshold " + v + ": expected a number in (0, 1)");
-    o.measure.metrics.threshold = x;
-  }, "t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)");
-  app.option("--terminator", [&](const std::string& v) {
-    t.terminator = penumbra::cli::one_of("--terminator", v, {"smooth", "geometric"}) == "smooth"
-                       ? penumbra::reference::Terminator::smooth
-                       : penumbra::reference::Terminator::geometric;
-  }, "where shadow rays start on smooth-shaded meshes: on the smooth surface the vertex normals "
-     "describe (smooth, the default) or on the flat triangles (geometric; docs/accuracy.md, the "
-     "shadow terminator)");
-  app.option("--threads", [&](const std::string& v) { t.threads = whole("--threads", v, 1, 1024); },
-       "tracing threads (default: all)");
-  app.option("--cache", [&](const std::string& v) { o.cache_dir = v; },
-       "the reference cache (default $PENUMBRA_REFERENCE_CACHE or ~/.cache/penumbra/reference)");
+  app.option(
+      "--seed",
+      [&](const std::string& v) { t.seed = penumbra::cli::whole64("--seed", v, 0, UINT64_MAX); },
+      "the sample sequence's seed (default 1)");
+  app.option(
+      "--light", [&](const std::string& v) { o.measure.lights.push_back(v); },
+      "measure only this light (sun, spot0, point1, ...); repeatable");
+  app.option(
+      "--threshold",
+      [&](const std::string& v) {
+        char* end = nullptr;
+        const double x = std::strtod(v.c_str(), &end);
+        if (v.empty() || *end != '\0' || !(x > 0.0 && x < 1.0))
+          throw Error("--threshold " + v + ": expected a number in (0, 1)");
+        o.measure.metrics.threshold = x;
+      },
+      "t of false light (V > R + t) and false shadow (V < R - t) (default 0.1)");
+  app.option(
+      "--terminator",
+      [&](const std::string& v) {
+        t.terminator = penumbra::cli::one_of("--terminator", v, {"smooth", "geometric"}) == "smooth"
+                           ? penumbra::reference::Terminator::smooth
+                           : penumbra::reference::Terminator::geometric;
+      },
+      "where shadow rays start on smooth-shaded meshes: on the smooth surface the vertex normals "
+      "describe (smooth, the default) or on the flat triangles (geometric; docs/accuracy.md, the "
+      "shadow terminator)");
+  app.option(
+      "--threads", [&](const std::string& v) { t.threads = whole("--threads", v, 1, 1024); },
+      "tracing threads (default: all)");
+  app.option(
+      "--cache", [&](const std::string& v) { o.cache_dir = v; },
+      "the reference cache (default $PENUMBRA_REFERENCE_CACHE or ~/.cache/penumbra/reference)");
   app.flag("--no-cache", no_cache, "trace every time");
-  app.option("--flicker", [&](const std::string& v) {
-    if (v == "all") {
-      o.flicker = penumbra::reference::standard_paths();
-      return;
-    }
-    size_t start = 0;
-    while (start <= v.size()) {
-      const size_t comma = std::min(v.find(',', start), v.size());
-      o.flicker.push_back(penumbra::reference::find_path(v.substr(start, comma - start)));
-      start = comma + 1;
-    }
-  }, "also measure temporal stability along these camera paths "
-     "(translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg): the fraction of shadow-edge "
-     "pixels whose visibility changes by more than 8/255 between frames, after reprojection; "
-     "into metrics.json's \"flicker\"");
-  app.option("--flicker-frames",
-       [&](const std::string& v) { o.flicker_options.frames = whole("--flicker-frames", v, 2, 10000); },
-       "frames per path (default 16)");
+  app.option(
+      "--flicker",
+      [&](const std::string& v) {
+        if (v == "all") {
+          o.flicker = penumbra::reference::standard_paths();
+          return;
+        }
+        size_t start = 0;
+        while (start <= v.size()) {
+          const size_t comma = std::min(v.find(',', start), v.size());
+          o.flicker.push_back(penumbra::reference::find_path(v.substr(start, comma - start)));
+          start = comma + 1;
+        }
+      },
+      "also measure temporal stability along these camera paths "
+      "(translate-1mm, translate-1cm, yaw-0.05deg, sun-0.05deg): the fraction of shadow-edge "
+      "pixels whose visibility changes by more than 8/255 between frames, after reprojection; "
+      "into metrics.json's \"flicker\"");
+  app.option(
+      "--flicker-frames",
+      [&](const std::string& v) {
+        o.flicker_options.frames = whole("--flicker-frames", v, 2, 10000);
+      },
+      "frames per path (default 16)");
   app.flag("--flicker-truth", flicker_truth,
-               "also trace the reference at every frame of the paths and measure its flicker: "
-               "what the truth itself shows (detail finer than a pixel, a turning sun), and the "
-               "renderer's flicker where the truth held still");
-  app.option("--timing-frames",
-       [&](const std::string& v) { o.timing_frames = whole("--timing-frames", v, 1, 10000); },
-       "after measuring, render N frames with a renderer as penumbra-view builds it (no "
-       "visibility output), after a warm-up (0.3-3 s, until the frame time settles), and write "
-       "each pass's median GPU ms (Vulkan timestamp queries) into metrics.json's \"timings\"");
+           "also trace the reference at every frame of the paths and measure its flicker: "
+           "what the truth itself shows (detail finer than a pixel, a turning sun), and the "
+           "renderer's flicker where the truth held still");
+  app.option(
+      "--timing-frames",
+      [&](const std::string& v) { o.timing_frames = whole("--timing-frames", v, 1, 10000); },
+      "after measuring, render N frames with a renderer as penumbra-view builds it (no "
+      "visibility output), after a warm-up (0.3-3 s, until the frame time settles), and write "
+      "each pass's median GPU ms (Vulkan timestamp queries) into metrics.json's \"timings\"");
   app.flag("--no-failure-modes", no_failure_modes,
-               "skip telling acne, leaks and the contact gap apart (their own rays; "
-               "metrics.json's acne, leak and contact_gap_* fields, modes.png)");
+           "skip telling acne, leaks and the contact gap apart (their own rays; "
+           "metrics.json's acne, leak and contact_gap_* fields, modes.png)");
   app.flag("--no-images", no_images, "write metrics.json alone, no PNGs (penumbra-tune's points)");
   app.parse(argc, argv);
   if (no_adaptive) t.adaptive = false;

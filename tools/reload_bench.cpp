@@ -22,8 +22,8 @@
 // at a fresh directory for the run, so "never compiled before" holds without salting the edits.
 #include <algorithm>
 #include <cctype>
-#include <cmath>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -151,8 +151,10 @@ std::vector<std::pair<size_t, size_t>> float_literals(const std::string& text) {
       if (i == std::string::npos) break;
       continue;
     }
-    if (c == '\n') line_start = true;
-    else if (c != ' ' && c != '\t') line_start = false;
+    if (c == '\n')
+      line_start = true;
+    else if (c != ' ' && c != '\t')
+      line_start = false;
     if (c == '{') ++depth;
     if (c == '}') --depth;
     const bool word_before = i > 0 && (std::isalnum(static_cast<unsigned char>(text[i - 1])) ||
@@ -182,9 +184,8 @@ Target auto_target(const std::string& rel, const std::string& text, size_t n = 0
   const auto literals = float_literals(text);
   if (literals.empty()) {
     const std::string first_line = text.substr(0, text.find('\n'));
-    return {rel, first_line, [first_line](long k) {
-              return first_line + " // edit " + std::to_string(k);
-            },
+    return {rel, first_line,
+            [first_line](long k) { return first_line + " // edit " + std::to_string(k); },
             "a comment (no float literal in its code)"};
   }
   const auto [at, len] = literals[std::min(n, literals.size() - 1)];
@@ -195,7 +196,8 @@ Target auto_target(const std::string& rel, const std::string& text, size_t n = 0
     if (to < text.size()) ++to;
   }
   const std::string needle = text.substr(from, to - from);
-  const std::string before = text.substr(from, at - from), after = text.substr(at + len, to - at - len);
+  const std::string before = text.substr(from, at - from),
+                    after = text.substr(at + len, to - at - len);
   const double value = std::stod(text.substr(at, len));
   char what[96];
   std::snprintf(what, sizeof what, "the literal %s (line %zu)", text.substr(at, len).c_str(),
@@ -225,35 +227,47 @@ struct Options {
 
 Options parse(int argc, char** argv) {
   Options o;
-  penumbra::cli::Command app("penumbra-reload-bench", "Hot-reload latency: file event -> end of the first frame with the new pipelines.");
+  penumbra::cli::Command app(
+      "penumbra-reload-bench",
+      "Hot-reload latency: file event -> end of the first frame with the new pipelines.");
   app.footer(
       "Defaults: the default scene at 640x360, 10 edits per file and mode, four files with "
       "hand-picked edits (penumbra/pcf.glsl, penumbra/shadow.glsl, penumbra/noise.glsl, "
       "contact_shadows.comp); --all: every file (docs/hot-reload.md).");
-  app.option("--scene", [&](const std::string& v) { o.scene = v; },
-       "the scene (with --all: only this one, instead of the first that reads each file)");
-  app.option("--size",
-       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 16, 16384); },
-       "the render size (default 640x360)");
-  app.option("--edits",
-       [&](const std::string& v) { o.edits = int(penumbra::cli::whole("--edits", v, 2, 100000)); },
-       "saves per file and mode (default 10)");
-  app.option("--file", [&](const std::string& v) { o.only.push_back(v); },
-       "only this file (repeatable); with --all any file under penumbra/ or render/");
-  app.option("--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
-       "the shader tree to copy and edit (default: the repo's shaders/)");
+  app.option(
+      "--scene", [&](const std::string& v) { o.scene = v; },
+      "the scene (with --all: only this one, instead of the first that reads each file)");
+  app.option(
+      "--size",
+      [&](const std::string& v) {
+        std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 16, 16384);
+      },
+      "the render size (default 640x360)");
+  app.option(
+      "--edits",
+      [&](const std::string& v) { o.edits = int(penumbra::cli::whole("--edits", v, 2, 100000)); },
+      "saves per file and mode (default 10)");
+  app.option(
+      "--file", [&](const std::string& v) { o.only.push_back(v); },
+      "only this file (repeatable); with --all any file under penumbra/ or render/");
+  app.option(
+      "--shader-dir", [&](const std::string& v) { o.shader_dir = v; },
+      "the shader tree to copy and edit (default: the repo's shaders/)");
   app.flag("--all", o.all,
-               "every file of the tree's penumbra/ and render/, each in the first setting that "
-               "reads it (default, indoor, space, grazing, then the default scene with the pcss "
-               "and evsm2 filters, then an analytic-sphere test scene)");
-  app.option("--modes", [&](const std::string& v) {
-    o.modes.clear();
-    std::stringstream in(v);
-    for (std::string m; std::getline(in, m, ',');)
-      o.modes.push_back(
-          penumbra::cli::one_of("--modes", m, {"new-loop", "undo-loop", "new-change", "undo-change"}));
-    if (o.modes.empty()) throw Error("--modes: expected at least one mode");
-  }, "of new-loop, undo-loop, new-change, undo-change (default: all four)");
+           "every file of the tree's penumbra/ and render/, each in the first setting that "
+           "reads it (default, indoor, space, grazing, then the default scene with the pcss "
+           "and evsm2 filters, then an analytic-sphere test scene)");
+  app.option(
+      "--modes",
+      [&](const std::string& v) {
+        o.modes.clear();
+        std::stringstream in(v);
+        for (std::string m; std::getline(in, m, ',');)
+          o.modes.push_back(penumbra::cli::one_of(
+              "--modes", m, {"new-loop", "undo-loop", "new-change", "undo-change"}));
+        if (o.modes.empty()) throw Error("--modes: expected at least one mode");
+      },
+      "of new-loop, undo-loop, new-change, undo-change (default: all four)");
   app.parse(argc, argv);
   return o;
 }
@@ -449,7 +463,8 @@ int run(int argc, char** argv) {
     // needs the default scene's alone).
     std::vector<std::unique_ptr<Probe>> built(settings.size());
     auto probe = [&](size_t i) -> Probe& {
-      if (!built[i]) built[i] = std::make_unique<Probe>(ctx, shaders, settings[i], o.width, o.height);
+      if (!built[i])
+        built[i] = std::make_unique<Probe>(ctx, shaders, settings[i], o.width, o.height);
       return *built[i];
     };
     // Each file in the first setting where its edit changes code, else the first that reads it.
@@ -459,7 +474,8 @@ int run(int argc, char** argv) {
       const fs::path file = fs::weakly_canonical(shaders / f);
       const std::string original = read_text(file);
       // Up to 4 of its literals in each setting that reads it.
-      const size_t tries = std::min<size_t>(4, std::max<size_t>(1, float_literals(original).size()));
+      const size_t tries =
+          std::min<size_t>(4, std::max<size_t>(1, float_literals(original).size()));
       std::optional<Target> first;
       int pick = -1;
       for (size_t i = 0; i < settings.size() && pick < 0; ++i) {
@@ -513,7 +529,8 @@ int run(int argc, char** argv) {
         "file and mode\n",
         setting.label().c_str(), o.width, o.height, frame, median(gpu_ms),
         static_cast<long long>(session.watcher()->options().debounce.count()), o.edits);
-    for (const Target& t : chosen) std::printf("  %-34s edit: %s\n", t.file.c_str(), t.what.c_str());
+    for (const Target& t : chosen)
+      std::printf("  %-34s edit: %s\n", t.file.c_str(), t.what.c_str());
     std::fflush(stdout);
     for (const Target& t : chosen) measure(session, shaders, t, o, frame, rng);
   }
@@ -525,7 +542,8 @@ int run(int argc, char** argv) {
   if (ctx.validation_enabled()) {  // PENUMBRA_VALIDATION=1: any message fails the run
     const auto messages = ctx.validation_sink().take();
     std::printf("validation: %zu messages\n", messages.size());
-    for (const auto& m : messages) std::fprintf(stderr, "  %s\n", penumbra::gpu::to_string(m).c_str());
+    for (const auto& m : messages)
+      std::fprintf(stderr, "  %s\n", penumbra::gpu::to_string(m).c_str());
     if (!messages.empty()) return 1;
   }
   return 0;

@@ -19,7 +19,6 @@
 #include <string>
 #include <vector>
 
-
 #include "cli.hpp"
 
 namespace {
@@ -110,8 +109,11 @@ int run(int reps) {
 int main(int argc, char** argv) {
   int reps = 9;
   try {
-    penumbra::cli::Command app("penumbra-startup-bench", "Times Vulkan start-up, a first dispatch cold and warm, and a steady one.");
-    app.option("--reps",
+    penumbra::cli::Command app(
+        "penumbra-startup-bench",
+        "Times Vulkan start-up, a first dispatch cold and warm, and a steady one.");
+    app.option(
+        "--reps",
         [&](const std::string& v) { reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
         "repetitions (default 9)");
     app.parse(argc, argv);

@@ -33,9 +33,8 @@
 #include <random>
 #include <sstream>
 #include <string>
-#include <vector>
-
 #include <tuple>
+#include <vector>
 
 #include "cli.hpp"
 
@@ -60,16 +59,23 @@ struct Push {
 
 Options parse(int argc, char** argv) {
   Options o;
-  penumbra::cli::Command app("penumbra-texel-rate", "Measures the device's texel-fetch rates for the shadow filters.");
-  app.option("--size",
-       [&](const std::string& v) { std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384); },
-       "the dispatch size");
-  app.option("--map", [&](const std::string& v) { o.map = penumbra::cli::whole("--map", v, 1, 16384); },
-       "the shadow map's size in texels");
-  app.option("--reps",
-       [&](const std::string& v) { o.reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
-       "repetitions per measurement");
-  app.option("--out", [&](const std::string& v) { o.out = v; }, "the JSON result's file");
+  penumbra::cli::Command app("penumbra-texel-rate",
+                             "Measures the device's texel-fetch rates for the shadow filters.");
+  app.option(
+      "--size",
+      [&](const std::string& v) {
+        std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 1, 16384);
+      },
+      "the dispatch size");
+  app.option(
+      "--map", [&](const std::string& v) { o.map = penumbra::cli::whole("--map", v, 1, 16384); },
+      "the shadow map's size in texels");
+  app.option(
+      "--reps",
+      [&](const std::string& v) { o.reps = int(penumbra::cli::whole("--reps", v, 1, 1000)); },
+      "repetitions per measurement");
+  app.option(
+      "--out", [&](const std::string& v) { o.out = v; }, "the JSON result's file");
   app.parse(argc, argv);
   return o;
 }

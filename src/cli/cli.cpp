@@ -1,7 +1,6 @@
 #include "cli.hpp"
 
 #include <CLI/CLI.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -11,7 +10,6 @@
 #include <stdexcept>
 
 namespace penumbra::cli {
-
 
 namespace {
 
@@ -92,15 +90,28 @@ namespace {
 
 // What the help calls the value of the tools' common flags.
 std::string value_name(const std::string& flag) {
-  static const std::map<std::string, std::string> names{
-      {"--scene", "NAME|FILE"}, {"--size", "WxH"},        {"--out", "PATH"},
-      {"--shader-dir", "DIR"},  {"--cache", "DIR"},       {"--report", "DIR"},
-      {"--review", "DIR"},      {"--script", "FILE|-"},   {"--command", "LINE"},
-      {"--set", "KEY=VALUE"},   {"--view", "VIEW"},       {"--filter", "FILTER"},
-      {"--light", "NAME"},      {"--threshold", "T"},     {"--seed", "S"},
-      {"--case,--scene", "NAME"}, {"--against", "CLASS"}, {"--file", "FILE"},
-      {"--modes", "M,..."},     {"--flicker", "PATH,...|all"}, {"--truth-flicker", "PATH"},
-      {"--terminator", "smooth|geometric"}};
+  static const std::map<std::string, std::string> names{{"--scene", "NAME|FILE"},
+                                                        {"--size", "WxH"},
+                                                        {"--out", "PATH"},
+                                                        {"--shader-dir", "DIR"},
+                                                        {"--cache", "DIR"},
+                                                        {"--report", "DIR"},
+                                                        {"--review", "DIR"},
+                                                        {"--script", "FILE|-"},
+                                                        {"--command", "LINE"},
+                                                        {"--set", "KEY=VALUE"},
+                                                        {"--view", "VIEW"},
+                                                        {"--filter", "FILTER"},
+                                                        {"--light", "NAME"},
+                                                        {"--threshold", "T"},
+                                                        {"--seed", "S"},
+                                                        {"--case,--scene", "NAME"},
+                                                        {"--against", "CLASS"},
+                                                        {"--file", "FILE"},
+                                                        {"--modes", "M,..."},
+                                                        {"--flicker", "PATH,...|all"},
+                                                        {"--truth-flicker", "PATH"},
+                                                        {"--terminator", "smooth|geometric"}};
   const auto it = names.find(flag);
   return it != names.end() ? it->second : "N";
 }

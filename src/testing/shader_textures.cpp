@@ -20,7 +20,6 @@
 #include "coverage_spirv.hpp"
 #include "glsl_scan.hpp"
 
-
 namespace penumbra::testing {
 
 namespace {
