@@ -1,7 +1,8 @@
 // The renderer: owns the frame's shared resources (passes/passes.hpp), builds the passes a scene
-// requires, orders them, and owns the timestamps, the readbacks and the build report. A frame:
-// pack_frame (CPU) -> upload -> shadow maps -> prepass -> shadow resolves -> shadow temporal ->
-// contact shadows -> forward -> tonemap -> copy to the readback buffer.
+// requires and the frame graph of their steps (graph.hpp: the order and the barriers come from
+// the images each step declares), and owns the timestamps, the readbacks and the build report.
+// A frame: pack_frame (CPU) -> upload -> shadow maps -> prepass -> shadow resolves -> shadow
+// temporal -> contact shadows -> forward -> tonemap -> copy to the readback buffer.
 
 #include <algorithm>
 #include <cstring>
@@ -63,6 +64,7 @@ std::string BuildReport::to_string() const {
   for (const auto& p : passes) s << "pass      " << p << "\n";
   for (const auto& p : pipelines) s << "pipeline  " << p << "\n";
   for (const auto& i : images) s << "image     " << i << "\n";
+  for (const auto& g : graph) s << "step      " << g << "\n";
   return s.str();
 }
 
@@ -91,6 +93,7 @@ struct Renderer::Impl {
   // The passes, in frame order (null when the scene does not require them).
   std::unique_ptr<ShadowMapPass> shadow_maps;
   std::vector<std::unique_ptr<Pass>> passes;
+  FrameGraph graph;                     // every pass's steps, ordered, with their barriers
   std::vector<std::string> pass_names;  // the timestamps of the last frame
 
   Impl(gpu::Context& c, const scene::Scene& s, const RendererOptions& o)
@@ -205,6 +208,28 @@ struct Renderer::Impl {
     if (contact) passes.push_back(std::move(contact));
     passes.push_back(std::move(forward));
     passes.push_back(std::move(tonemap));
+    build_graph();
+  }
+
+  // The frame graph of every pass's steps, and the copy of the output into the readback
+  // buffer; its order and barriers come from the images the steps declare.
+  void build_graph() {
+    std::vector<Step> steps = shadow_maps->steps(res);
+    for (auto& pass : passes)
+      for (Step& step : pass->steps(res)) steps.push_back(std::move(step));
+    steps.push_back({"readback",
+                     {{"ldr", &res.ldr, Use::copy_source}},
+                     [this](VkCommandBuffer cmd) {
+                       VkBufferImageCopy region{};
+                       region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
+                       region.imageExtent = {res.width, res.height, 1};
+                       vkCmdCopyImageToBuffer(cmd, res.ldr.handle(),
+                                              VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                              readback.handle(), 1, &region);
+                     },
+                     {}});
+    graph = FrameGraph(std::move(steps));
+    report.graph = graph.describe();
   }
 
   void update(uint32_t frame_index) {
@@ -240,7 +265,8 @@ struct Renderer::Impl {
     if (last_camera) {
       // (world - origin) -> (world - last origin) -> the last view: in double, so that a world
       // far from its origin keeps the sub-millimetre shift between the origins.
-      const glm::dmat4 shift = glm::translate(glm::dmat4(1.0), res.packed.origin - last_camera->origin);
+      const glm::dmat4 shift =
+          glm::translate(glm::dmat4(1.0), res.packed.origin - last_camera->origin);
       t.to_previous_view = glm::mat4(last_camera->view * shift);
       t.previous_proj = glm::mat4(last_camera->proj);
     }
@@ -252,20 +278,12 @@ struct Renderer::Impl {
     uint32_t q = 0;
     std::vector<std::string> names;
     timestamps.reset(cmd);
-    const Mark mark = [&](const std::string& name) {
+    const auto mark = [&](const std::string& name) {
       timestamps.write(cmd, q++, VK_PIPELINE_STAGE_2_ALL_COMMANDS_BIT);
       if (!name.empty()) names.push_back(name);
     };
     mark("");
-    shadow_maps->record(cmd, res, mark);
-    for (auto& pass : passes) pass->record(cmd, res, mark);
-
-    res.ldr.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-    VkBufferImageCopy region{};
-    region.imageSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
-    region.imageExtent = {res.width, res.height, 1};
-    vkCmdCopyImageToBuffer(cmd, res.ldr.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                           readback.handle(), 1, &region);
+    graph.record(cmd, mark);
     gpu::full_barrier(cmd);
     pass_names = names;
   }

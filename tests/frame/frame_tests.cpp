@@ -258,6 +258,17 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     EXPECT_FALSE(b.has_pass("sphere-shadows")) << b.to_string();
     EXPECT_TRUE(b.has_pipeline("sun-shadow-opaque"));
     EXPECT_TRUE(b.has_pipeline("sun-shadow-masked")) << "the default scene has a masked fence";
+    // The frame graph, as the report prints it: the steps in the order their images give.
+    std::vector<std::string> steps;
+    for (const auto& g : b.graph) steps.push_back(g.substr(0, g.find(':')));
+    EXPECT_THAT(steps, ::testing::ElementsAre("sun-shadow", "prepass", "shadow-resolve",
+                                              "shadow-temporal", "shadow-temporal-history",
+                                              "contact-resolve", "contact-shadows", "forward",
+                                              "tonemap", "readback"));
+    EXPECT_THAT(b.to_string(),
+                ::testing::HasSubstr("step      shadow-resolve: reads depth (sampled), normal "
+                                     "(sampled), sun-shadow-map (sampled); writes shadow-info "
+                                     "(storage write)"));
   }
   {
     render::Renderer r(ctx(), small("space"));

@@ -32,6 +32,7 @@
 #include <penumbra/scene/scene.hpp>
 #include <penumbra/shadow/types.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace penumbra::render {
@@ -172,6 +173,13 @@ class ContactShadowPass {
   // cached per (depth, normals) pair; the images must outlive the recorded commands.
   void record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
               const ContactShadowFrame& frame);
+  // The two dispatches of record() without any barrier, for a caller that orders the images
+  // itself (the renderer's frame graph): the resolve samples depth and writes
+  // resolved_depth() (GENERAL); the march samples resolved_depth(), depth and normals and writes
+  // mask() (GENERAL). Nothing when disabled.
+  void record_resolve(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals);
+  void record_march(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
+                    const ContactShadowFrame& frame);
 
   // The mask (R8_UNORM, 1 = lit) and the R32F copy of the depth; nullptr while disabled.
   gpu::Image* mask() { return mask_.get(); }
@@ -216,6 +224,9 @@ class ContactShadowPass {
   void destroy();
   void create_pipelines();
   gpu::Specialization specialization() const;
+  // The (resolve, march) descriptor sets of an image pair, made the first time; checks the
+  // images.
+  std::pair<VkDescriptorSet, VkDescriptorSet> sets_for(gpu::Image& depth, gpu::Image& normals);
 
   gpu::Context& ctx_;
   std::uint32_t width_ = 0, height_ = 0;
@@ -229,6 +240,7 @@ class ContactShadowPass {
   std::vector<std::uint32_t> given_march_spirv_, given_resolve_spirv_;  // from the desc
   std::uint64_t dispatch_count_ = 0;
   std::vector<std::string> recorded_;
+  bool in_record_ = false;  // record() is running: its barriers are already in recorded_
   ContactShadowGpu last_params_{};
 };
 

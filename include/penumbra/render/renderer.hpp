@@ -73,6 +73,9 @@ struct BuildReport {
   std::vector<std::string> passes;     // names of the passes that record work
   std::vector<std::string> pipelines;  // pipeline names (with their shader variant defines)
   std::vector<std::string> images;     // render targets and shadow maps with sizes and formats
+  // The frame graph's steps in the order they run, each with the images it reads and writes
+  // ("shadow-resolve: reads depth (sampled), ...; writes shadow-info (storage write)").
+  std::vector<std::string> graph;
   std::string to_string() const;
   bool has_pass(const std::string& name) const;
   bool has_pipeline(const std::string& name) const;

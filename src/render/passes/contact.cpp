@@ -35,11 +35,24 @@ ContactPass::ContactPass(FrameResources& r) {
                             std::to_string(r.height) + " R8 + resolved depth R32F");
 }
 
-PassIo ContactPass::io() const {
-  return {{"depth", "normal"}, {"contact-mask"}};
+std::vector<Step> ContactPass::steps(FrameResources& r) {
+  Step resolve{"contact-resolve",
+               {{"depth", &r.depth, Use::sampled},
+                {"contact-resolved-depth", pass_->resolved_depth(), Use::storage_write}},
+               [this, &r](VkCommandBuffer cmd) { pass_->record_resolve(cmd, r.depth, r.normal); },
+               {}};
+  Step march{
+      "contact-shadows",
+      {{"contact-resolved-depth", pass_->resolved_depth(), Use::sampled},
+       {"depth", &r.depth, Use::sampled},
+       {"normal", &r.normal, Use::sampled},
+       {"contact-mask", pass_->mask(), Use::storage_write}},
+      [this, &r](VkCommandBuffer cmd) { pass_->record_march(cmd, r.depth, r.normal, frame(r)); },
+      "contact-shadows"};
+  return {resolve, march};
 }
 
-void ContactPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
+ContactShadowFrame ContactPass::frame(const FrameResources& r) const {
   ContactShadowFrame f;
   const auto cam = frame_camera(r.scene, r.width, r.height);
   f.camera = ContactCamera::from(
@@ -55,8 +68,7 @@ void ContactPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mar
   }
   f.frame = r.packed.frame.mode.x;
   f.caster_mask = true;  // the prepass marks casters in the normals' alpha
-  pass_->record(cmd, r.depth, r.normal, f);
-  mark("contact-shadows");
+  return f;
 }
 
 }  // namespace penumbra::render::passes

@@ -8,6 +8,8 @@
 #include <sstream>
 #include <utility>
 
+#include "../graph.hpp"
+
 namespace penumbra::render {
 
 namespace {
@@ -333,31 +335,27 @@ void ContactShadowPass::destroy() {
   resolve_spirv_.clear();
 }
 
-void ContactShadowPass::record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
-                               const ContactShadowFrame& frame) {
-  recorded_.clear();
-  if (!enabled()) return;  // step_count 0: no commands at all
+std::pair<VkDescriptorSet, VkDescriptorSet> ContactShadowPass::sets_for(gpu::Image& depth,
+                                                                        gpu::Image& normals) {
   const auto check_image = [&](const gpu::Image& image, const char* what) {
     const gpu::ImageDesc& d = image.desc();
     if (d.width != width_ || d.height != height_ || d.kind != gpu::ImageKind::image_2d) {
-      throw Error(std::string("ContactShadowPass::record: the ") + what + " image is " +
+      throw Error(std::string("ContactShadowPass: the ") + what + " image is " +
                   std::to_string(d.width) + "x" + std::to_string(d.height) +
                   ", the pass was created for a 2D image of " + std::to_string(width_) + "x" +
                   std::to_string(height_));
     }
     if ((d.usage & VK_IMAGE_USAGE_SAMPLED_BIT) == 0) {
-      throw Error(std::string("ContactShadowPass::record: the ") + what +
+      throw Error(std::string("ContactShadowPass: the ") + what +
                   " image needs VK_IMAGE_USAGE_SAMPLED_BIT");
     }
   };
   check_image(depth, "depth");
   check_image(normals, "normal");
   if (gpu::is_depth_format(depth.desc().format) && gpu::has_stencil(depth.desc().format)) {
-    throw Error("ContactShadowPass::record: depth/stencil formats are not supported (" +
+    throw Error("ContactShadowPass: depth/stencil formats are not supported (" +
                 std::to_string(depth.desc().format) + "); use a depth-only format");
   }
-  const ContactShadowGpu params = pack_contact_shadow(settings_, frame, width_, height_);
-
   // Descriptor sets, cached per (depth, normals) pair.
   const auto key = std::make_pair(depth.view(), normals.view());
   auto it = gpu_->sets.find(key);
@@ -384,41 +382,75 @@ void ContactShadowPass::record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Imag
     it = gpu_->sets.emplace(key, s).first;
   }
 
-  const auto transition = [&](gpu::Image& image, VkImageLayout layout, const char* name) {
-    image.transition(cmd, layout);
-    recorded_.push_back(std::string("barrier ") + name + " -> " +
-                        (layout == VK_IMAGE_LAYOUT_GENERAL ? "GENERAL" : "SHADER_READ_ONLY"));
-  };
-  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
-  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
+  return {it->second.resolve, it->second.march};
+}
 
-  if (depth.layout() != VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL) {
-    transition(depth, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "depth");
-  }
-  if (normals.layout() != VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL) {
-    transition(normals, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "normals");
-  }
-  // Always a barrier: it orders this frame's writes after the last frame's reads.
-  transition(*resolved_, VK_IMAGE_LAYOUT_GENERAL, "resolved_depth");
+void ContactShadowPass::record_resolve(VkCommandBuffer cmd, gpu::Image& depth,
+                                       gpu::Image& normals) {
+  if (!enabled()) return;
+  if (!in_record_) recorded_.clear();
+  const VkDescriptorSet set = sets_for(depth, normals).first;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve.handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve_layout.handle(), 0, 1,
-                          &it->second.resolve, 0, nullptr);
+                          &set, 0, nullptr);
+  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
+  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
   vkCmdDispatch(cmd, gx, gy, 1);
   recorded_.push_back(dispatch_text("depth_resolve", gx, gy));
   ++dispatch_count_;
+}
 
-  transition(*resolved_, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "resolved_depth");
-  transition(*mask_, VK_IMAGE_LAYOUT_GENERAL, "mask");
+void ContactShadowPass::record_march(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
+                                     const ContactShadowFrame& frame) {
+  if (!enabled()) return;
+  const ContactShadowGpu params = pack_contact_shadow(settings_, frame, width_, height_);
+  const VkDescriptorSet set = sets_for(depth, normals).second;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->march.handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->march_layout.handle(), 0, 1,
-                          &it->second.march, 0, nullptr);
+                          &set, 0, nullptr);
   vkCmdPushConstants(cmd, gpu_->march_layout.handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0,
                      sizeof(ContactShadowGpu), &params);
+  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
+  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
   vkCmdDispatch(cmd, gx, gy, 1);
   recorded_.push_back(dispatch_text("contact_shadows", gx, gy));
   ++dispatch_count_;
-  transition(*mask_, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, "mask");
   last_params_ = params;
+}
+
+void ContactShadowPass::record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Image& normals,
+                               const ContactShadowFrame& frame) {
+  recorded_.clear();
+  if (!enabled()) return;  // step_count 0: no commands at all
+  // Every error before the first command: the images, the settings and the frame.
+  sets_for(depth, normals);
+  pack_contact_shadow(settings_, frame, width_, height_);
+  using passes::Use;
+  passes::FrameGraph graph(
+      {{"contact-resolve",
+        {{"depth", &depth, Use::sampled}, {"resolved_depth", resolved_.get(), Use::storage_write}},
+        [&](VkCommandBuffer c) { record_resolve(c, depth, normals); },
+        {}},
+       {"contact-march",
+        {{"resolved_depth", resolved_.get(), Use::sampled},
+         {"depth", &depth, Use::sampled},
+         {"normals", &normals, Use::sampled},
+         {"mask", mask_.get(), Use::storage_write}},
+        [&](VkCommandBuffer c) { record_march(c, depth, normals, frame); },
+        {}}},
+      {&depth, &normals});
+  const passes::BarrierLog log = [this](const std::string& image, VkImageLayout layout) {
+    recorded_.push_back("barrier " + image + " -> " + passes::layout_name(layout));
+  };
+  in_record_ = true;
+  try {
+    graph.record(cmd, {}, log);
+  } catch (...) {
+    in_record_ = false;
+    throw;
+  }
+  in_record_ = false;
+  graph.finish(cmd, {{"mask", mask_.get(), Use::sampled}}, log);
 }
 
 }  // namespace penumbra::render

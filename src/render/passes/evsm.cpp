@@ -21,8 +21,7 @@ struct EvsmPush {
 
 }  // namespace
 
-EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
-    : source_(source) {
+EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source) : source_(source) {
   const bool fp16 = r.scene.shadows.evsm_fp16;
   const bool sun = source == MomentSource::sun;
   const bool spots = source == MomentSource::spots;
@@ -31,19 +30,23 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
   if (!r.ctx.info().storage_image_extended_formats) {
     throw Error(std::string(sun ? "shadows.filter" : "a [[" + kind + "]] filter") +
                 " = 'evsm2' needs shaderStorageImageExtendedFormats (rg16f / rg32f storage "
-                "images), which " + r.ctx.info().name + " does not have");
+                "images), which " +
+                r.ctx.info().name + " does not have");
   }
   gpu::Image& depths = sun ? maps.sun_map : spots ? maps.spot_maps : maps.point_cubes;
+  depths_ = &depths;
   resolution_ = depths.desc().width;
   layers_ = depths.desc().layers;
   const VkFormat format = fp16 ? VK_FORMAT_R16G16_SFLOAT : VK_FORMAT_R32G32_SFLOAT;
   const VkImageUsageFlags usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT;
   const std::string name = kind + "-moments";
-  const std::string sized_by = (sun ? std::string("shadows.resolution") : "[[" + kind + "]] resolution") +
-                               " = " + std::to_string(resolution_) + " with the evsm2 filter";
+  const std::string sized_by =
+      (sun ? std::string("shadows.resolution") : "[[" + kind + "]] resolution") + " = " +
+      std::to_string(resolution_) + " with the evsm2 filter";
   moments_x_ = r.make_image(name + "-x", gpu::ImageKind::image_2d_array, format, resolution_,
                             resolution_, layers_, usage, 1, sized_by);
   gpu::Image& out = sun ? r.sun_moments : spots ? r.spot_moments : r.point_moments;
+  out_ = &out;
   const bool cubes = source == MomentSource::points;
   // shadows.evsm_mips: the sun's moments get a full chain, blitted down from level 0.
   mips_ = sun && r.scene.shadows.evsm_mips;
@@ -62,9 +65,10 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
     r.linear_clamp = gpu::Sampler(r.ctx, linear);
   }
   // The spots' first pass also reads their planes (SpotBlock at 3); both passes share the layout.
-  std::vector<gpu::BindingDesc> bindings{{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
-                                         {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
-                                         {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
+  std::vector<gpu::BindingDesc> bindings{
+      {0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute},
+      {1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute},
+      {2, VK_DESCRIPTOR_TYPE_STORAGE_IMAGE, 1, kCompute}};
   if (spots) bindings.push_back({3, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, kCompute});
   layout_ = std::make_unique<gpu::PipelineLayout>(
       r.ctx, std::vector<std::vector<gpu::BindingDesc>>{bindings}, uint32_t(sizeof(EvsmPush)),
@@ -73,13 +77,12 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
     std::vector<shader::Define> defines{{"PENUMBRA_EVSM_PASS", std::to_string(p)},
                                         {"PENUMBRA_EVSM_FORMAT", fp16 ? "rg16f" : "rg32f"}};
     if (spots) defines.push_back({"PENUMBRA_EVSM_SPOTS", "1"});
-    r.add_pipeline(variant(std::string(sun ? "" : kind + "-") +
-                               (p == 0 ? "evsm-moments-x" : "evsm-moments-y"),
-                           defines),
-                   {{"render/evsm_moments.comp", defines}},
-                   pass_[p], [this, &r](const shader::Spirvs& spirv) {
-                     return std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
-                   });
+    r.add_pipeline(
+        variant(std::string(sun ? "" : kind + "-") + (p == 0 ? "evsm-moments-x" : "evsm-moments-y"),
+                defines),
+        {{"render/evsm_moments.comp", defines}}, pass_[p], [this, &r](const shader::Spirvs& spirv) {
+          return std::make_unique<gpu::ComputePipeline>(r.ctx, spirv[0], *layout_);
+        });
     set_[p] = r.pool.allocate(layout_->set_layout(0));
   }
   // The cubes are read and written as plain 2D arrays, face by face.
@@ -101,36 +104,36 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source)
 
 EvsmPass::~EvsmPass() = default;
 
-PassIo EvsmPass::io() const {
-  if (source_ == MomentSource::points)
-    return {{"frame", "point-shadow-map"}, {"point-moments-x", "point-moments"}};
-  if (source_ == MomentSource::spots)
-    return {{"frame", "spot-shadow-map"}, {"spot-moments-x", "spot-moments"}};
-  return {{"frame", "sun-shadow-map"}, {"sun-moments-x", "sun-moments"}};
-}
-
-void EvsmPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  const EvsmPush push{glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)),
-                                 resolution_, 0u, 0u)};
-  const uint32_t groups = (resolution_ + 7) / 8;
-  gpu::Image* out[2] = {&moments_x_, source_ == MomentSource::sun      ? &r.sun_moments
-                                     : source_ == MomentSource::spots  ? &r.spot_moments
-                                                                       : &r.point_moments};
-  for (int p = 0; p < 2; ++p) {
-    out[p]->transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
+std::vector<Step> EvsmPass::steps(FrameResources& r) {
+  static const char* const names[] = {"evsm", "evsm-point", "evsm-spot"};
+  static const char* const maps[] = {"sun-shadow-map", "point-shadow-cubes", "spot-shadow-maps"};
+  static const char* const moments[] = {"sun-moments", "point-moments", "spot-moments"};
+  const std::string name = names[int(source_)];
+  gpu::Image* out = out_;
+  const std::string x_name = std::string(moments[int(source_)]) + "-x";
+  // x: the depths warped into moments and blurred along x; y: blurred along y (and the mips).
+  auto dispatch = [this, &r](VkCommandBuffer cmd, int p) {
+    const EvsmPush push{
+        glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)), resolution_, 0u, 0u)};
+    const uint32_t groups = (resolution_ + 7) / 8;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass_[p]->handle());
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1,
-                            &set_[p], 0, nullptr);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_[p],
+                            0, nullptr);
     vkCmdPushConstants(cmd, layout_->handle(), kCompute, 0, sizeof(EvsmPush), &push);
     vkCmdDispatch(cmd, groups, groups, layers_);
-    if (p == 1 && mips_) {
-      out[p]->generate_mips(cmd);
-    } else {
-      out[p]->transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-    }
-  }
-  const char* const marks[] = {"evsm", "evsm-point", "evsm-spot"};
-  mark(marks[int(source_)]);
+  };
+  Step x{name + "-x",
+         {{maps[int(source_)], depths_, Use::sampled}, {x_name, &moments_x_, Use::storage_write}},
+         [dispatch](VkCommandBuffer cmd) { dispatch(cmd, 0); },
+         {}};
+  Step y{name + "-y",
+         {{x_name, &moments_x_, Use::sampled}, {moments[int(source_)], out, Use::storage_write}},
+         [this, dispatch, out](VkCommandBuffer cmd) {
+           dispatch(cmd, 1);
+           if (mips_) out->generate_mips(cmd);  // leaves every level SHADER_READ_ONLY
+         },
+         name};
+  return {x, y};
 }
 
 }  // namespace penumbra::render::passes

@@ -15,8 +15,8 @@ ForwardPass::ForwardPass(FrameResources& r) {
   if (r.contact_mask) b.push_back({2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
   const bool local = req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0;
   if (local) b.push_back({3, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, all});
-  layout_ = std::make_unique<gpu::PipelineLayout>(
-      r.ctx, draw_sets(r, b), uint32_t(sizeof(DrawPush)), all);
+  layout_ = std::make_unique<gpu::PipelineLayout>(r.ctx, draw_sets(r, b),
+                                                  uint32_t(sizeof(DrawPush)), all);
   auto defines = light_defines(r);
   if (!r.mask_textures.empty())
     for (auto& d : mask_defines(r)) defines.push_back(d);
@@ -56,33 +56,39 @@ ForwardPass::ForwardPass(FrameResources& r) {
   r.report.passes.push_back("forward: lighting");
 }
 
-PassIo ForwardPass::io() const {
-  if (temporal_)
-    return {{"frame", "depth", "temporal-aux", "contact-mask", "temporal-local"},
-            {"hdr", "visibility"}};
-  return {{"frame", "depth", "shadow-info", "contact-mask", "local-shadow"}, {"hdr", "visibility"}};
-}
-
-void ForwardPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL);
-  r.hdr.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  std::vector<VkImageView> visibility_views;
+std::vector<Step> ForwardPass::steps(FrameResources& r) {
+  const auto& req = r.req;
+  Step step{"forward",
+            {{"depth", &r.depth, Use::depth_test}, {"hdr", &r.hdr, Use::color_target}},
+            {},
+            "forward"};
+  if (req.sun_shadows)
+    step.images.push_back(temporal_ ? ImageUse{"temporal-aux", &r.temporal_aux, Use::sampled}
+                                    : ImageUse{"shadow-info", &r.info, Use::sampled});
+  if (r.contact_mask) step.images.push_back({"contact-mask", r.contact_mask, Use::sampled});
+  if (req.spot_shadow_maps > 0 || req.point_shadow_cubes > 0)
+    step.images.push_back(temporal_ ? ImageUse{"temporal-local", &r.temporal_local, Use::sampled}
+                                    : ImageUse{"local-shadow", &r.local_info, Use::sampled});
   if (r.visibility_output)
-    for (auto& v : r.visibility) {
-      v.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-      visibility_views.push_back(v.view());
-    }
-  const glm::vec3 sky =
-      r.scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
-  begin_rendering(cmd, r, r.width, r.height, r.hdr.view(), {{sky.r, sky.g, sky.b, 1.0f}},
-                  r.depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false, visibility_views);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_->handle(), 0, 1, &set_, 0,
-                          nullptr);
-  draw_meshes(cmd, r, *layout_, opaque_->handle(), masked_ ? masked_->handle() : VK_NULL_HANDLE,
-              false, glm::uvec4(0));
-  vkCmdEndRendering(cmd);
-  r.hdr.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("forward");
+    for (int i = 0; i < 2; ++i)
+      step.images.push_back(
+          {"visibility" + std::to_string(i), &r.visibility[i], Use::color_target});
+  step.record = [this, &r](VkCommandBuffer cmd) {
+    std::vector<VkImageView> visibility_views;
+    if (r.visibility_output)
+      for (auto& v : r.visibility) visibility_views.push_back(v.view());
+    const glm::vec3 sky =
+        r.scene.sun ? glm::vec3(0.45f, 0.6f, 0.85f) : glm::vec3(0.01f, 0.01f, 0.02f);
+    begin_rendering(cmd, r, r.width, r.height, r.hdr.view(), {{sky.r, sky.g, sky.b, 1.0f}},
+                    r.depth.view(), VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL, false,
+                    visibility_views);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_->handle(), 0, 1, &set_, 0,
+                            nullptr);
+    draw_meshes(cmd, r, *layout_, opaque_->handle(), masked_ ? masked_->handle() : VK_NULL_HANDLE,
+                false, glm::uvec4(0));
+    vkCmdEndRendering(cmd);
+  };
+  return {step};
 }
 
 }  // namespace penumbra::render::passes

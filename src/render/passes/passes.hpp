@@ -1,10 +1,11 @@
 #pragma once
 
 // The renderer's passes (internal to penumbra::render). Each pass builds its pipelines and
-// descriptor sets from the shared FrameResources, declares the images it reads and writes, and
-// records its commands against them. The renderer (renderer.cpp) owns the resources, orders the
-// passes, writes the timestamps and keeps the build report. docs/architecture.md has the data
-// path of a frame and where to change what.
+// descriptor sets from the shared FrameResources and returns its steps: the images each reads
+// and writes, and its commands, without barriers. The renderer (renderer.cpp) owns the
+// resources and hands every step to the frame graph (../graph.hpp), which orders them and
+// moves the images; it writes the timestamps and keeps the build report. docs/architecture.md has
+// the data path of a frame and where to change what.
 
 #include <functional>
 #include <map>
@@ -18,6 +19,8 @@
 #include <penumbra/shader/registry.hpp>
 #include <string>
 #include <vector>
+
+#include "../graph.hpp"
 
 namespace penumbra::render::passes {
 
@@ -101,29 +104,23 @@ struct FrameResources {
   template <class P, class Make>
   void add_pipeline(const std::string& name, std::vector<shader::ProgramSource> sources,
                     std::unique_ptr<P>& target, Make make) {
-    add_prepared_pipeline(name, std::move(sources),
-                          [&target, make](const shader::Spirvs& spirv)
-                              -> shader::ProgramRegistry::Install {
-                            auto fresh = std::make_shared<std::unique_ptr<P>>(make(spirv));
-                            return [&target, fresh] { target = std::move(*fresh); };
-                          });
+    add_prepared_pipeline(
+        name, std::move(sources),
+        [&target, make](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
+          auto fresh = std::make_shared<std::unique_ptr<P>>(make(spirv));
+          return [&target, fresh] { target = std::move(*fresh); };
+        });
   }
   VkCompareOp depth_test(bool strict) const;  // nearer passes (reverse-Z: greater)
 };
 
-// Records `name` in the timestamps after the commands before it.
-using Mark = std::function<void(const std::string& name)>;
-
-// What a pass reads and writes, by image name (the build report prints it).
-struct PassIo {
-  std::vector<std::string> reads, writes;
-};
-
+// A pass is its steps (graph.hpp): each declares the images it reads and writes and records its
+// commands without barriers; the frame graph orders the steps and moves the images. steps() is
+// called once, after every pass is built; the steps may hold `this` and `r`.
 class Pass {
  public:
   virtual ~Pass() = default;
-  virtual PassIo io() const = 0;
-  virtual void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) = 0;
+  virtual std::vector<Step> steps(FrameResources& r) = 0;
 };
 
 // ---- shared recording helpers (recording.cpp) --------------------------------------------
@@ -201,8 +198,7 @@ class ShadowMapPass final : public Pass {
  public:
   explicit ShadowMapPass(FrameResources& r);
   ~ShadowMapPass() override;
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
   void upload(const PackedFrame& packed);  // the light matrices of this frame
 
   gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
@@ -216,8 +212,7 @@ class ShadowMapPass final : public Pass {
 class PrepassPass final : public Pass {
  public:
   explicit PrepassPass(FrameResources& r);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   std::unique_ptr<gpu::PipelineLayout> layout_;
@@ -236,14 +231,15 @@ class EvsmPass final : public Pass {
  public:
   EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source);
   ~EvsmPass() override;
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   std::unique_ptr<gpu::PipelineLayout> layout_;
   std::unique_ptr<gpu::ComputePipeline> pass_[2];  // x (from the depths), then y
   VkDescriptorSet set_[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   gpu::Image moments_x_;
+  gpu::Image* depths_ = nullptr;  // the shadow maps it reads
+  gpu::Image* out_ = nullptr;     // the moments it writes
   uint32_t resolution_ = 0, layers_ = 0;
   MomentSource source_ = MomentSource::sun;
   bool mips_ = false;  // shadows.evsm_mips (the sun's moments only)
@@ -252,12 +248,12 @@ class EvsmPass final : public Pass {
 // The sun: cascade selection, biases and the filter, per pixel, into the shadow-info image.
 class ShadowResolvePass final : public Pass {
  public:
-  ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  ShadowResolvePass(FrameResources& r, ShadowMapPass& maps);
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   PerPixelCompute compute_;
+  ShadowMapPass& maps_;
   bool moments_ = false;  // filter = evsm2: it reads sun-moments
 };
 
@@ -265,12 +261,12 @@ class ShadowResolvePass final : public Pass {
 // (spot 0, spot 1, point 0, point 1).
 class LocalShadowResolvePass final : public Pass {
  public:
-  LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  LocalShadowResolvePass(FrameResources& r, ShadowMapPass& maps);
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   PerPixelCompute compute_;
+  ShadowMapPass& maps_;
   bool point_moments_ = false, spot_moments_ = false;  // lights' own evsm2: it reads their moments
 };
 
@@ -279,8 +275,7 @@ class LocalShadowResolvePass final : public Pass {
 class SphereShadowPass final : public Pass {
  public:
   SphereShadowPass(FrameResources& r, const ShadowMapPass& maps);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   PerPixelCompute compute_;
@@ -293,8 +288,7 @@ class SphereShadowPass final : public Pass {
 class TemporalShadowPass final : public Pass {
  public:
   explicit TemporalShadowPass(FrameResources& r);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   PerPixelCompute compute_;
@@ -304,10 +298,10 @@ class TemporalShadowPass final : public Pass {
 class ContactPass final : public Pass {
  public:
   explicit ContactPass(FrameResources& r);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
+  ContactShadowFrame frame(const FrameResources& r) const;  // this frame's camera and light
   std::unique_ptr<ContactShadowPass> pass_;
 };
 
@@ -315,8 +309,7 @@ class ContactPass final : public Pass {
 class ForwardPass final : public Pass {
  public:
   explicit ForwardPass(FrameResources& r);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   std::unique_ptr<gpu::PipelineLayout> layout_;
@@ -329,8 +322,7 @@ class ForwardPass final : public Pass {
 class TonemapPass final : public Pass {
  public:
   explicit TonemapPass(FrameResources& r);
-  PassIo io() const override;
-  void record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) override;
+  std::vector<Step> steps(FrameResources& r) override;
 
  private:
   PerPixelCompute compute_;

@@ -8,9 +8,8 @@ PrepassPass::PrepassPass(FrameResources& r) {
   const VkShaderStageFlags all = VK_SHADER_STAGE_ALL;
   // Geometry: prepass + forward share the vertex stage and the frame block.
   layout_ = std::make_unique<gpu::PipelineLayout>(
-      r.ctx,
-      draw_sets(r, {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}), uint32_t(sizeof(DrawPush)),
-      all);
+      r.ctx, draw_sets(r, {{0, VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER, 1, all}}),
+      uint32_t(sizeof(DrawPush)), all);
   for (bool masked : {false, true}) {
     if (masked && !r.req.masked_materials) continue;
     r.add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
@@ -34,23 +33,21 @@ PrepassPass::PrepassPass(FrameResources& r) {
   r.report.passes.push_back("prepass: depth + normals");
 }
 
-PassIo PrepassPass::io() const {
-  return {{"frame"}, {"depth", "normal"}};
-}
-
-void PrepassPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.depth.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-  r.normal.transition(cmd, VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL);
-  begin_rendering(cmd, r, r.width, r.height, r.normal.view(), {{0, 0, 0, 0}}, r.depth.view(),
-                  VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
-  vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_->handle(), 0, 1, &set_, 0,
-                          nullptr);
-  draw_meshes(cmd, r, *layout_, opaque_->handle(), masked_ ? masked_->handle() : VK_NULL_HANDLE,
-              false, glm::uvec4(0));
-  vkCmdEndRendering(cmd);
-  r.depth.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.normal.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("prepass");
+std::vector<Step> PrepassPass::steps(FrameResources& r) {
+  Step step{"prepass",
+            {{"depth", &r.depth, Use::depth_target}, {"normal", &r.normal, Use::color_target}},
+            {},
+            "prepass"};
+  step.record = [this, &r](VkCommandBuffer cmd) {
+    begin_rendering(cmd, r, r.width, r.height, r.normal.view(), {{0, 0, 0, 0}}, r.depth.view(),
+                    VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout_->handle(), 0, 1, &set_, 0,
+                            nullptr);
+    draw_meshes(cmd, r, *layout_, opaque_->handle(), masked_ ? masked_->handle() : VK_NULL_HANDLE,
+                false, glm::uvec4(0));
+    vkCmdEndRendering(cmd);
+  };
+  return {step};
 }
 
 }  // namespace penumbra::render::passes

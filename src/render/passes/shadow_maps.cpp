@@ -9,7 +9,8 @@
 namespace penumbra::render::passes {
 
 struct ShadowMapPass::View {
-  std::string name;  // the timestamp ("sun-shadow")
+  std::string name;   // the timestamp ("sun-shadow")
+  std::string image;  // the target's name in the build report ("sun-shadow-map")
   gpu::Image* target = nullptr;
   std::function<uint32_t(const PackedFrame&)> layers;
   std::function<glm::uvec4(uint32_t)> index;
@@ -80,6 +81,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     sun_ubo = gpu::Buffer(r.ctx, sizeof(shadow::ShadowGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
     v.name = "sun-shadow";
+    v.image = "sun-shadow-map";
     v.target = &sun_map;
     v.layers = [n](const PackedFrame&) { return n; };
     v.index = [](uint32_t c) { return glm::uvec4(c, 0, 0, 0); };
@@ -103,6 +105,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                            VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
     v.name = "spot-shadow";
+    v.image = "spot-shadow-maps";
     v.target = &spot_maps;
     v.layers = [](const PackedFrame& f) { return uint32_t(f.spot_shadows.size()); };
     v.index = [](uint32_t i) { return glm::uvec4(i, 0, 0, 0); };
@@ -127,6 +130,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                             VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     View& v = views_.emplace_back();
     v.name = "point-shadow";
+    v.image = "point-shadow-cubes";
     v.target = &point_cubes;
     // Layer 6·i + f is face f of light i. One pipeline draws opaque and masked casters: its
     // fragment stage writes the linear distance and alpha-tests.
@@ -152,8 +156,9 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                      return std::make_unique<gpu::GraphicsPipeline>(r.ctx, d, layout);
                    });
     v.set = ubo_set(r, *v.layout, point_ubo);
-    const bool fitted = std::any_of(r.scene.points.begin(), r.scene.points.end(),
-                                    [](const scene::PointLight& p) { return p.shadows && p.fit_to_camera; });
+    const bool fitted =
+        std::any_of(r.scene.points.begin(), r.scene.points.end(),
+                    [](const scene::PointLight& p) { return p.shadows && p.fit_to_camera; });
     r.report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces" +
                               (fitted ? " (fitted to the camera: the faces it sees)" : ""));
   }
@@ -161,42 +166,40 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
 
 ShadowMapPass::~ShadowMapPass() = default;
 
-PassIo ShadowMapPass::io() const {
-  PassIo io;
-  for (const View& v : views_) io.writes.push_back(v.name + "-map");
-  return io;
-}
-
 void ShadowMapPass::upload(const PackedFrame& f) {
   if (sun_ubo.handle() != VK_NULL_HANDLE) sun_ubo.write(std::as_bytes(std::span(&f.shadow, 1)));
   if (spot_ubo.handle() != VK_NULL_HANDLE) spot_ubo.write(std::as_bytes(std::span(f.spot_gpu)));
   if (point_ubo.handle() != VK_NULL_HANDLE) point_ubo.write(std::as_bytes(std::span(f.point_gpu)));
 }
 
-void ShadowMapPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  // Caster-side depth bias pushes caster depth away from the light: negative under reverse-Z.
-  const float bias_sign = r.reverse_z ? -1.0f : 1.0f;
+std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
+  std::vector<Step> out;
   for (View& v : views_) {
-    gpu::Image& target = *v.target;
-    const uint32_t layers = v.layers(r.packed);
-    // The point pipeline draws opaque and masked casters alike.
-    const gpu::GraphicsPipeline* masked = v.caster_bias ? v.masked.get() : v.opaque.get();
-    target.transition(cmd, VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL);
-    for (uint32_t l = 0; l < layers; ++l) {
-      begin_rendering(cmd, r, target.desc().width, target.desc().width, VK_NULL_HANDLE, {},
-                      target.layer_view(l), VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
-      if (!v.draws || v.draws(r.packed, l)) {
-        if (v.caster_bias) vkCmdSetDepthBias(cmd, 0.0f, 0.0f, bias_sign * 1.0f);
-        vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
-                                &v.set, 0, nullptr);
-        draw_meshes(cmd, r, *v.layout, v.opaque->handle(),
-                    masked ? masked->handle() : VK_NULL_HANDLE, true, v.index(l));
+    Step step{v.name, {{v.image, v.target, Use::depth_target}}, {}, v.name};
+    step.record = [&r, &v](VkCommandBuffer cmd) {
+      // Caster-side depth bias pushes caster depth away from the light: negative under
+      // reverse-Z.
+      const float bias_sign = r.reverse_z ? -1.0f : 1.0f;
+      gpu::Image& target = *v.target;
+      const uint32_t layers = v.layers(r.packed);
+      // The point pipeline draws opaque and masked casters alike.
+      const gpu::GraphicsPipeline* masked = v.caster_bias ? v.masked.get() : v.opaque.get();
+      for (uint32_t l = 0; l < layers; ++l) {
+        begin_rendering(cmd, r, target.desc().width, target.desc().width, VK_NULL_HANDLE, {},
+                        target.layer_view(l), VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, true);
+        if (!v.draws || v.draws(r.packed, l)) {
+          if (v.caster_bias) vkCmdSetDepthBias(cmd, 0.0f, 0.0f, bias_sign * 1.0f);
+          vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
+                                  &v.set, 0, nullptr);
+          draw_meshes(cmd, r, *v.layout, v.opaque->handle(),
+                      masked ? masked->handle() : VK_NULL_HANDLE, true, v.index(l));
+        }
+        vkCmdEndRendering(cmd);
       }
-      vkCmdEndRendering(cmd);
-    }
-    target.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-    mark(v.name);
+    };
+    out.push_back(std::move(step));
   }
+  return out;
 }
 
 }  // namespace penumbra::render::passes

@@ -51,7 +51,8 @@ std::vector<gpu::BindingDesc> local_resolve_bindings(const FrameResources& r) {
     b.push_back({first + 1, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
     b.push_back({first + 2, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   }
-  if (r.req.point_moments) b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
+  if (r.req.point_moments)
+    b.push_back({11, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   if (r.req.spot_moments) b.push_back({12, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, kCompute});
   return b;
 }
@@ -90,9 +91,10 @@ SpecValues local_resolve_specialization(const FrameResources& r) {
 
 }  // namespace
 
-ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
+ShadowResolvePass::ShadowResolvePass(FrameResources& r, ShadowMapPass& maps)
     : compute_(r, sun_resolve_name(r), {"render/shadow_resolve.comp", sun_resolve_defines(r)},
-               sun_resolve_bindings(r), sun_resolve_specialization) {
+               sun_resolve_bindings(r), sun_resolve_specialization),
+      maps_(maps) {
   r.info = r.make_image("shadow-info", gpu::ImageKind::image_2d, kInfoFormat, r.width, r.height, 1,
                         VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   gpu::DescriptorWriter()
@@ -113,22 +115,23 @@ ShadowResolvePass::ShadowResolvePass(FrameResources& r, const ShadowMapPass& map
   r.report.passes.push_back("shadow-resolve: compute");
 }
 
-PassIo ShadowResolvePass::io() const {
-  if (moments_) return {{"frame", "depth", "normal", "sun-shadow-map", "sun-moments"}, {"shadow-info"}};
-  return {{"frame", "depth", "normal", "sun-shadow-map"}, {"shadow-info"}};
+std::vector<Step> ShadowResolvePass::steps(FrameResources& r) {
+  Step step{"shadow-resolve",
+            {{"depth", &r.depth, Use::sampled},
+             {"normal", &r.normal, Use::sampled},
+             {"sun-shadow-map", &maps_.sun_map, Use::sampled},
+             {"shadow-info", &r.info, Use::storage_write}},
+            [this, &r](VkCommandBuffer cmd) { compute_.dispatch(cmd, r); },
+            "shadow-resolve"};
+  if (moments_) step.images.push_back({"sun-moments", &r.sun_moments, Use::sampled});
+  return {step};
 }
 
-void ShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  compute_.dispatch(cmd, r);
-  r.info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("shadow-resolve");
-}
-
-LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMapPass& maps)
+LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, ShadowMapPass& maps)
     : compute_(r, variant("local-shadow-resolve", local_defines(r)),
                {"render/local_shadow_resolve.comp", local_defines(r)}, local_resolve_bindings(r),
-               local_resolve_specialization) {
+               local_resolve_specialization),
+      maps_(maps) {
   r.local_info = r.make_image("local-shadow", gpu::ImageKind::image_2d, kInfoFormat, r.width,
                               r.height, 1, VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_SAMPLED_BIT);
   r.local_debug =
@@ -159,21 +162,21 @@ LocalShadowResolvePass::LocalShadowResolvePass(FrameResources& r, const ShadowMa
   r.report.passes.push_back("local-shadow-resolve: compute");
 }
 
-PassIo LocalShadowResolvePass::io() const {
-  PassIo io{{"frame", "depth", "normal", "spot-shadow-map", "point-shadow-map"},
-            {"local-shadow", "local-shadow-debug"}};
-  if (point_moments_) io.reads.push_back("point-moments");
-  if (spot_moments_) io.reads.push_back("spot-moments");
-  return io;
-}
-
-void LocalShadowResolvePass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.local_info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  compute_.dispatch(cmd, r);
-  r.local_info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.local_debug.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("local-shadow-resolve");
+std::vector<Step> LocalShadowResolvePass::steps(FrameResources& r) {
+  Step step{"local-shadow-resolve",
+            {{"depth", &r.depth, Use::sampled},
+             {"normal", &r.normal, Use::sampled},
+             {"local-shadow", &r.local_info, Use::storage_write},
+             {"local-shadow-debug", &r.local_debug, Use::storage_write}},
+            [this, &r](VkCommandBuffer cmd) { compute_.dispatch(cmd, r); },
+            "local-shadow-resolve"};
+  if (r.req.spot_shadow_maps)
+    step.images.push_back({"spot-shadow-maps", &maps_.spot_maps, Use::sampled});
+  if (r.req.point_shadow_cubes)
+    step.images.push_back({"point-shadow-cubes", &maps_.point_cubes, Use::sampled});
+  if (point_moments_) step.images.push_back({"point-moments", &r.point_moments, Use::sampled});
+  if (spot_moments_) step.images.push_back({"spot-moments", &r.spot_moments, Use::sampled});
+  return {step};
 }
 
 }  // namespace penumbra::render::passes

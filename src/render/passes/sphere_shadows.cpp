@@ -53,30 +53,18 @@ SphereShadowPass::SphereShadowPass(FrameResources& r, const ShadowMapPass& maps)
   }
   if (local_) w.storage_image(5, r.local_info.view());
   w.update(r.ctx, compute_.set());
-  r.report.passes.push_back("sphere-shadows: compute (" +
-                            std::to_string(r.req.analytic_spheres) + " analytic spheres)");
+  r.report.passes.push_back("sphere-shadows: compute (" + std::to_string(r.req.analytic_spheres) +
+                            " analytic spheres)");
 }
 
-PassIo SphereShadowPass::io() const {
-  PassIo io{{"frame", "depth"}, {}};
-  if (sun_) {
-    io.reads.push_back("shadow-info");
-    io.writes.push_back("shadow-info");
-  }
-  if (local_) {
-    io.reads.push_back("local-shadow");
-    io.writes.push_back("local-shadow");
-  }
-  return io;
-}
-
-void SphereShadowPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  if (sun_) r.info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  if (local_) r.local_info.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  compute_.dispatch(cmd, r);
-  if (sun_) r.info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  if (local_) r.local_info.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("sphere-shadows");
+std::vector<Step> SphereShadowPass::steps(FrameResources& r) {
+  Step step{"sphere-shadows",
+            {{"depth", &r.depth, Use::sampled}},
+            [this, &r](VkCommandBuffer cmd) { compute_.dispatch(cmd, r); },
+            "sphere-shadows"};
+  if (sun_) step.images.push_back({"shadow-info", &r.info, Use::storage_modify});
+  if (local_) step.images.push_back({"local-shadow", &r.local_info, Use::storage_modify});
+  return {step};
 }
 
 }  // namespace penumbra::render::passes

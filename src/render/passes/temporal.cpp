@@ -36,8 +36,6 @@ std::vector<gpu::BindingDesc> temporal_bindings(const FrameResources& r) {
 }
 
 void copy_image(VkCommandBuffer cmd, gpu::Image& from, gpu::Image& to, uint32_t w, uint32_t h) {
-  from.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL);
-  to.transition(cmd, VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL);
   VkImageCopy region{};
   region.srcSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
   region.dstSubresource = {VK_IMAGE_ASPECT_COLOR_BIT, 0, 0, 1};
@@ -61,8 +59,8 @@ TemporalShadowPass::TemporalShadowPass(FrameResources& r)
                                 r.width, r.height, 1, out_usage);
   r.history_local = r.make_image("history-local", gpu::ImageKind::image_2d, kInfoFormat, r.width,
                                  r.height, 1, history_usage);
-  r.history_aux = r.make_image("history-aux", gpu::ImageKind::image_2d, kTemporalAuxFormat,
-                               r.width, r.height, 1, history_usage);
+  r.history_aux = r.make_image("history-aux", gpu::ImageKind::image_2d, kTemporalAuxFormat, r.width,
+                               r.height, 1, history_usage);
   r.temporal_ubo = gpu::Buffer(r.ctx, sizeof(TemporalGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
   gpu::DescriptorWriter w;
   w.buffer(0, r.frame_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
@@ -79,25 +77,30 @@ TemporalShadowPass::TemporalShadowPass(FrameResources& r)
   r.report.passes.push_back("shadow-temporal: compute");
 }
 
-PassIo TemporalShadowPass::io() const {
-  return {{"frame", "depth", "normal", "shadow-info", "local-shadow", "history-local",
-           "history-aux"},
-          {"temporal-local", "temporal-aux", "history-local", "history-aux"}};
-}
-
-void TemporalShadowPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.history_local.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.history_aux.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.temporal_local.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  r.temporal_aux.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  compute_.dispatch(cmd, r);
-  copy_image(cmd, r.temporal_local, r.history_local, r.width, r.height);
-  copy_image(cmd, r.temporal_aux, r.history_aux, r.width, r.height);
-  r.temporal_local.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.temporal_aux.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.history_local.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  r.history_aux.transition(cmd, VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL);
-  mark("shadow-temporal");
+std::vector<Step> TemporalShadowPass::steps(FrameResources& r) {
+  Step blend{"shadow-temporal",
+             {{"depth", &r.depth, Use::sampled},
+              {"normal", &r.normal, Use::sampled},
+              {"history-local", &r.history_local, Use::sampled, true},
+              {"history-aux", &r.history_aux, Use::sampled, true},
+              {"temporal-local", &r.temporal_local, Use::storage_write},
+              {"temporal-aux", &r.temporal_aux, Use::storage_write}},
+             [this, &r](VkCommandBuffer cmd) { compute_.dispatch(cmd, r); },
+             {}};
+  if (r.req.sun_shadows) blend.images.push_back({"shadow-info", &r.info, Use::sampled});
+  if (has_local(r)) blend.images.push_back({"local-shadow", &r.local_info, Use::sampled});
+  // This frame's accumulation becomes the next frame's history.
+  Step keep{"shadow-temporal-history",
+            {{"temporal-local", &r.temporal_local, Use::copy_source},
+             {"temporal-aux", &r.temporal_aux, Use::copy_source},
+             {"history-local", &r.history_local, Use::copy_target},
+             {"history-aux", &r.history_aux, Use::copy_target}},
+            [&r](VkCommandBuffer cmd) {
+              copy_image(cmd, r.temporal_local, r.history_local, r.width, r.height);
+              copy_image(cmd, r.temporal_aux, r.history_aux, r.width, r.height);
+            },
+            "shadow-temporal"};
+  return {blend, keep};
 }
 
 }  // namespace penumbra::render::passes

@@ -43,15 +43,18 @@ TonemapPass::TonemapPass(FrameResources& r)
   r.report.passes.push_back("tonemap: compute");
 }
 
-PassIo TonemapPass::io() const {
-  return {{"frame", "hdr", "shadow-info", "local-shadow", "local-shadow-debug", "contact-mask"},
-          {"ldr"}};
-}
-
-void TonemapPass::record(VkCommandBuffer cmd, FrameResources& r, const Mark& mark) {
-  r.ldr.transition(cmd, VK_IMAGE_LAYOUT_GENERAL);
-  compute_.dispatch(cmd, r);
-  mark("tonemap");
+std::vector<Step> TonemapPass::steps(FrameResources& r) {
+  Step step{"tonemap",
+            {{"hdr", &r.hdr, Use::sampled}, {"ldr", &r.ldr, Use::storage_write}},
+            [this, &r](VkCommandBuffer cmd) { compute_.dispatch(cmd, r); },
+            "tonemap"};
+  if (r.req.sun_shadows) step.images.push_back({"shadow-info", &r.info, Use::sampled});
+  if (r.contact_mask) step.images.push_back({"contact-mask", r.contact_mask, Use::sampled});
+  if (r.req.spot_shadow_maps > 0 || r.req.point_shadow_cubes > 0) {
+    step.images.push_back({"local-shadow", &r.local_info, Use::sampled});
+    step.images.push_back({"local-shadow-debug", &r.local_debug, Use::sampled});
+  }
+  return {step};
 }
 
 }  // namespace penumbra::render::passes
