@@ -129,7 +129,7 @@ bool Script::run_line(const std::string& line, const std::string& where) {
   try {
     return execute(args);
   } catch (const std::exception& e) {
-    // "t.txt:3: set shadows.pcf_radius 9: expected ..." (the command is named once).
+    // "t.txt:3: set shadows.cascades 9: expected ..." (the command is named once).
     const std::string what = e.what();
     auto starts = [&](const std::string& p) { return what.rfind(p, 0) == 0; };
     std::string msg;

@@ -7,7 +7,7 @@
 //   scene NAME|PATH             load a shipped scene or a .toml file (a new renderer)
 //   size WxH                    render at this size (a new renderer)
 //   set KEY VALUE               a parameter by its scene-file name: shadows.filter pcss,
-//                               contact.steps 0, shadows.pcf_radius 3, camera.position 0,2,6 ...
+//                               contact.steps 0, shadows.resolution 4096, camera.position 0,2,6 ...
 //   get KEY                     print a parameter
 //   view NAME                   lit, shadow_factor, cascades, contact_mask, texel_density, penumbra
 //   frame N                     the frame index the noise patterns use (default 0)

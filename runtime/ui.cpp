@@ -36,7 +36,7 @@ bool rebuilds(const scene::Param& p) {
   return p.apply == scene::ParamApply::rebuild;
 }
 
-// "pcf radius##shadows.pcf_radius": the name shown, the key (a light's: spot[0].range) as
+// "normal offset texels##shadows.normal_offset_texels": the name shown, the key (a light's: spot[0].range) as
 // ImGui's id.
 std::string label_of(const scene::Param& p, const std::string& key) {
   std::string label(p.name());

@@ -163,7 +163,7 @@ Options parse_options(int argc, char** argv) {
       "one automation command (as in --script)");
   app.option(
       "--set", [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
-      "override a parameter-table key after loading, e.g. --set shadows.pcf_radius=2 "
+      "override a parameter-table key after loading, e.g. --set shadows.resolution=4096 "
       "(docs/scenes.md lists the keys)");
   app.parse(argc, argv);
   if (!o.sets.empty() && !o.scripts.empty())

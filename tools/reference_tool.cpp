@@ -19,6 +19,7 @@
 #include <penumbra/reference/temporal.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
 #include <string>

@@ -50,11 +50,7 @@ struct DrawPush {
   uvec4 index;
 };
 
-const uint kFilterHard = 0u;
-const uint kFilterPcf = 1u;
-const uint kFilterPcss = 2u;
-const uint kFilterPoisson = 3u;
-const uint kFilterEvsm2 = 4u;
+#include "penumbra/filters.glsl"  // kFilterHard ...: generated from the filter table
 
 const uint kViewLit = 0u;
 const uint kViewShadowFactor = 1u;

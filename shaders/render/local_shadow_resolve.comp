@@ -14,6 +14,7 @@
 #include "penumbra/local_shadow.glsl"
 #include "penumbra/noise.glsl"
 #include "penumbra/vsm.glsl"
+#include "penumbra/shadow_filter.glsl"
 
 #ifndef PENUMBRA_SPOT_SHADOWS
 #define PENUMBRA_SPOT_SHADOWS 0
@@ -49,11 +50,17 @@ layout(set = 0, binding = 10, rgba16f) uniform writeonly image2D local_debug;
 // A point light's own filter = evsm2: the cubes' blurred EVSM2 moments (evsm_moments.comp over
 // every face), linear, sampled across faces.
 layout(set = 0, binding = 11) uniform samplerCubeArray point_moments;
+#define POINT_MOMENTS point_moments
+#else
+#define POINT_MOMENTS point_depth  // never read: evsm2 is not among point_filters()
 #endif
 #if PENUMBRA_SPOT_MOMENTS
 // A spot light's own filter = evsm2: its map's blurred EVSM2 moments of linear depth
 // ((view depth - near) / (far - near); evsm2_moments_box_x_linear), linear, clamped.
 layout(set = 0, binding = 12) uniform sampler2DArray spot_moments;
+#define SPOT_MOMENTS spot_moments
+#else
+#define SPOT_MOMENTS spot_depth  // never read: evsm2 is not among spot_filters()
 #endif
 
 // The renderer specializes these per frame (src/render/passes/shadow_resolve.cpp): bit f of
@@ -68,6 +75,14 @@ bool penumbra_view() {
   return kPenumbraView == kFromFrame ? frame.mode.w == kViewPenumbra : kPenumbraView == 1u;
 }
 bool in_set(uint filters, uint f) { return (filters & (1u << f)) != 0u; }
+// The filters each kind of light compiles (shadow_filter.glsl; kFromFrame: every one), evsm2
+// only with its moments.
+uint spot_filters() {
+  return PENUMBRA_SPOT_MOMENTS != 0 ? kSpotFilters : kSpotFilters & ~(1u << kFilterEvsm2);
+}
+uint point_filters() {
+  return PENUMBRA_POINT_MOMENTS != 0 ? kPointFilters : kPointFilters & ~(1u << kFilterEvsm2);
+}
 
 // The light's own filter (LightGpu.params.w), else the scene's.
 uint light_filter(LightGpu light) {
@@ -136,33 +151,35 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
   uint filter_mode = light_filter(light);
-  if (in_set(kSpotFilters, kFilterHard) && filter_mode == kFilterHard)
-    return pcf_grid_array(spot_compare, coord, map, 0, texel);
-  if (in_set(kSpotFilters, kFilterPcf) && filter_mode == kFilterPcf)
-    return pcf_grid_array(spot_compare, coord, map, int(frame.filter_params.x), texel);
-  if (in_set(kSpotFilters, kFilterPoisson) && filter_mode == kFilterPoisson)
-    return pcf_poisson_array(spot_compare, coord, map, int(frame.filter_params.z),
-                             frame.filter_params.w, rotation, texel);
-#if PENUMBRA_SPOT_MOMENTS
-  if (in_set(kSpotFilters, kFilterEvsm2) && filter_mode == kFilterEvsm2) {
-    // The receiver's view depth mapped as the moments' depths were (1 - t under reverse-Z).
-    float t = clamp((receiver_distance - params.near) / (params.far - params.near), 0.0, 1.0);
-    return evsm2_sample_shadow_array(spot_moments, vec3(coord.xy, reverse_z ? 1.0 - t : t), map,
-                                     frame.evsm.x, frame.evsm.y, frame.evsm.z, reverse_z,
-                                     frame.evsm.w != 0.0);
+  ShadowLookup2D f;
+  f.coord = coord;
+  f.layer = map;
+  f.texel = texel;
+  f.rotation = rotation;
+  f.reverse_z = reverse_z;
+  f.pcf_radius = int(frame.filter_params.x);
+  f.taps = int(frame.filter_params.z);
+  f.disk_radius = frame.filter_params.w;
+  f.pcss_tier = int(frame.filter_params.y);
+  f.perspective = true;
+  f.pcss_local = params;
+  f.receiver_distance = receiver_distance;
+  f.evsm = frame.evsm;
+  // evsm2: the receiver's view depth mapped as the moments' depths were (1 - t under reverse-Z).
+  float t = clamp((receiver_distance - params.near) / (params.far - params.near), 0.0, 1.0);
+  f.moments_depth = reverse_z ? 1.0 - t : t;
+  f.footprint = false;
+  if (in_set(spot_filters(), kFilterPcss) && filter_mode == kFilterPcss) {
+    // The receiver plane's depth gradient in the map, from two points on the plane a texel's
+    // footprint away (receiver_plane_depth_gradient takes any two independent steps).
+    vec3 t1, t2;
+    cube_tangent_basis(n, t1, t2);
+    vec3 step1 = world_to_shadow_coord(s.view_proj, q + t1 * texel_world) - coord;
+    vec3 step2 = world_to_shadow_coord(s.view_proj, q + t2 * texel_world) - coord;
+    f.plane_gradient = receiver_plane_depth_gradient(step1, step2);
   }
-#endif
-  // Not reached with the renderer's specialization unless a spot light uses pcss.
-  if (!in_set(kSpotFilters, kFilterPcss)) return 1.0;
-  // The receiver plane's depth gradient in the map, from two points on the plane a texel's
-  // footprint away (receiver_plane_depth_gradient takes any two independent steps).
-  vec3 t1, t2;
-  cube_tangent_basis(n, t1, t2);
-  vec3 step1 = world_to_shadow_coord(s.view_proj, q + t1 * texel_world) - coord;
-  vec3 step2 = world_to_shadow_coord(s.view_proj, q + t2 * texel_world) - coord;
-  return pcss_spot_shadow_array(spot_compare, spot_depth, coord, map, texel, receiver_distance,
-                                params, int(frame.filter_params.y), rotation, reverse_z,
-                                receiver_plane_depth_gradient(step1, step2));
+  return shadow_filter_2d_array(filter_mode, spot_filters(), spot_compare, spot_depth,
+                                SPOT_MOMENTS, f);
 }
 #endif
 
@@ -208,24 +225,23 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
     float zb = cube_stored_distance(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
-  uint filter_mode = light_filter(light);
-  if (in_set(kPointFilters, kFilterHard) && filter_mode == kFilterHard)
-    return pcf_cube_array(point_compare, v, map, ref, 0, resolution);
-  if (in_set(kPointFilters, kFilterPcf) && filter_mode == kFilterPcf)
-    return pcf_cube_array(point_compare, v, map, ref, int(frame.filter_params.x), resolution);
-  if (in_set(kPointFilters, kFilterPoisson) && filter_mode == kFilterPoisson)
-    return pcf_cube_vogel_array(point_compare, v, map, ref, int(frame.filter_params.z),
-                                frame.filter_params.w, rotation, resolution);
-#if PENUMBRA_POINT_MOMENTS
-  if (in_set(kPointFilters, kFilterEvsm2) && filter_mode == kFilterEvsm2)
-    return evsm2_sample_shadow_cube_array(point_moments, v, map, ref, frame.evsm.x, frame.evsm.y,
-                                          frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
-#endif
-  // Not reached with the renderer's specialization unless a point light uses pcss.
-  if (!in_set(kPointFilters, kFilterPcss)) return 1.0;
-  return pcss_cube_shadow_array(point_compare, point_depth, v, map, ref, receiver_distance,
-                                resolution, params, int(frame.filter_params.y), rotation,
-                                reverse_z, n);
+  ShadowLookupCube f;
+  f.dir = v;
+  f.layer = map;
+  f.ref = ref;
+  f.resolution = resolution;
+  f.rotation = rotation;
+  f.reverse_z = reverse_z;
+  f.pcf_radius = int(frame.filter_params.x);
+  f.taps = int(frame.filter_params.z);
+  f.disk_radius = frame.filter_params.w;
+  f.pcss_tier = int(frame.filter_params.y);
+  f.pcss_local = params;
+  f.receiver_distance = receiver_distance;
+  f.plane_normal = n;
+  f.evsm = frame.evsm;
+  return shadow_filter_cube_array(light_filter(light), point_filters(), point_compare,
+                                  point_depth, POINT_MOMENTS, f);
 }
 #endif
 

@@ -6,6 +6,7 @@
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/shadow.glsl"
+#include "penumbra/shadow_filter.glsl"
 #include "penumbra/noise.glsl"
 #include "penumbra/vsm.glsl"
 
@@ -31,9 +32,20 @@ layout(set = 0, binding = 6, rgba16f) uniform writeonly image2D shadow_info;
 #if PENUMBRA_SUN_MOMENTS
 // filter = evsm2: the cascades' blurred EVSM2 moments (evsm_moments.comp), linear, clamped.
 layout(set = 0, binding = 7) uniform sampler2DArray sun_moments;
+#define SUN_MOMENTS sun_moments
+#else
+#define SUN_MOMENTS shadow_depth  // never read: evsm2 is not among sun_filters()
 #endif
 
 uint sun_filter() { return kSunFilter == kFromFrame ? frame.mode.z : kSunFilter; }
+// The filters this pipeline compiles (shadow_filter.glsl): the specialized one, with the Poisson
+// disk that constant width turns PCF into; evsm2 only with its moments.
+uint sun_filters() {
+  uint all = kSunFilter == kFromFrame ? kAllFilters
+             : kSunFilter == kFilterPcf ? (1u << kFilterPcf) | (1u << kFilterPoisson)
+                                        : 1u << kSunFilter;
+  return PENUMBRA_SUN_MOMENTS != 0 ? all : all & ~(1u << kFilterEvsm2);
+}
 bool penumbra_view() {
   return kPenumbraView == kFromFrame ? frame.mode.w == kViewPenumbra : kPenumbraView == 1u;
 }
@@ -90,29 +102,29 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
                               reverse_z, average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
-#if PENUMBRA_SUN_MOMENTS
-  if (filter_mode == kFilterEvsm2 && frame.filter_world.z != 0.0) {  // shadows.evsm_mips
-    vec2 duv_dx = world_to_shadow_coord(cascade.view_proj, biased + dpdx).xy - coord.xy;
-    vec2 duv_dy = world_to_shadow_coord(cascade.view_proj, biased + dpdy).xy - coord.xy;
-    return evsm2_sample_shadow_array_footprint(sun_moments, coord, c, duv_dx, duv_dy,
-                                               frame.evsm.x, frame.evsm.y, frame.evsm.z,
-                                               reverse_z, frame.evsm.w != 0.0);
+  // The filter (shadow_filter.glsl). Constant width in world units turns PCF into the Poisson
+  // disk of world_radius.
+  ShadowLookup2D q;
+  q.coord = coord;
+  q.layer = c;
+  q.texel = texel;
+  q.rotation = rotation;
+  q.reverse_z = reverse_z;
+  q.pcf_radius = int(frame.filter_params.x);
+  q.taps = int(frame.filter_params.z);
+  q.disk_radius = constant_width ? world_radius : frame.filter_params.w;
+  q.pcss_tier = int(frame.filter_params.y);
+  q.perspective = false;
+  q.pcss = params;
+  q.evsm = frame.evsm;
+  q.moments_depth = coord.z;
+  q.footprint = filter_mode == kFilterEvsm2 && frame.filter_world.z != 0.0;  // shadows.evsm_mips
+  if (q.footprint) {
+    q.duv_dx = world_to_shadow_coord(cascade.view_proj, biased + dpdx).xy - coord.xy;
+    q.duv_dy = world_to_shadow_coord(cascade.view_proj, biased + dpdy).xy - coord.xy;
   }
-  if (filter_mode == kFilterEvsm2)
-    return evsm2_sample_shadow_array(sun_moments, coord, c, frame.evsm.x, frame.evsm.y,
-                                     frame.evsm.z, reverse_z, frame.evsm.w != 0.0);
-#endif
-  if (constant_width)
-    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z), world_radius,
-                             rotation, texel);
-  if (filter_mode == kFilterHard) return pcf_grid_array(shadow_compare, coord, c, 0, texel);
-  if (filter_mode == kFilterPcf)
-    return pcf_grid_array(shadow_compare, coord, c, int(frame.filter_params.x), texel);
-  if (filter_mode == kFilterPoisson)
-    return pcf_poisson_array(shadow_compare, coord, c, int(frame.filter_params.z),
-                             frame.filter_params.w, rotation, texel);
-  return pcss_shadow_array(shadow_compare, shadow_depth, coord, c, texel, params,
-                           int(frame.filter_params.y), rotation, reverse_z);
+  return shadow_filter_2d_array(constant_width ? kFilterPoisson : filter_mode, sun_filters(),
+                                shadow_compare, shadow_depth, SUN_MOMENTS, q);
 }
 
 // Texels the configured filter reaches beyond the receiver's own: what a cascade chosen by

@@ -46,16 +46,24 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
   return draws;
 }
 
-// LightGpu.params.w: a local light's own filter, else -1 (the scene's). Moments are built for
-// the sun and for the spot and point lights whose own filter is evsm2 (`moments`: they were
-// built), so under the scene's evsm2 a light without a filter of its own uses pcf, and so does a
-// light's own evsm2 without its moments.
+// A filter as a light of `kind` resolves it (the filter table's rows): itself, or its fallback
+// when it needs moments the light does not have (`moments`: they were built for it) or takes no
+// maps of the light's kind.
+scene::Filter usable_filter(scene::Filter f, scene::LightKind kind, bool moments) {
+  const scene::FilterSpec& spec = scene::filter_spec(f);
+  if ((spec.moments && !moments) || !scene::filter_accepts(f, kind))
+    return spec.fallback.value_or(scene::Filter::pcf);
+  return f;
+}
+
+// LightGpu.params.w: a local light's own filter, else -1 (the scene's as the frame carries it).
+// Moments are built for the sun and for the spot and point lights whose own filter needs them,
+// so a light that inherits such a filter, or one its maps cannot take, uses the fallback.
 float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> own,
-                        bool moments = false) {
-  if (own == scene::Filter::evsm2 && !moments) return float(filter_index(scene::Filter::pcf));
-  if (own) return float(filter_index(*own));
-  return scene.shadows.filter == scene::Filter::evsm2 ? float(filter_index(scene::Filter::pcf))
-                                                      : -1.0f;
+                        scene::LightKind kind, bool moments = false) {
+  if (own) return float(scene::filter_index(usable_filter(*own, kind, moments)));
+  const scene::Filter inherited = usable_filter(scene.shadows.filter, kind, false);
+  return inherited == scene.shadows.filter ? -1.0f : float(scene::filter_index(inherited));
 }
 
 void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t height,
@@ -73,7 +81,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
         glm::vec4(glm::normalize(s.direction), std::cos(glm::radians(s.outer_degrees)));
     l.color_intensity = glm::vec4(s.color, s.intensity);
     l.params = glm::vec4(std::cos(glm::radians(s.inner_degrees)), -1.0f, s.radius,
-                         local_filter_slot(scene, s.filter, caps.spot_moments));
+                         local_filter_slot(scene, s.filter, scene::LightKind::spot, caps.spot_moments));
     if (s.shadows && spot_maps_used < caps.spot_shadow_maps) {
       shadow::SpotLight sl;
       sl.position = to_d(s.position);
@@ -94,7 +102,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
     LightGpu& l = out.frame.points[points++];
     l.position_range = glm::vec4(glm::vec3(to_d(p.position) - origin), p.range);
     l.color_intensity = glm::vec4(p.color, p.intensity);
-    l.params = glm::vec4(0, -1.0f, p.radius, local_filter_slot(scene, p.filter, caps.point_moments));
+    l.params = glm::vec4(0, -1.0f, p.radius, local_filter_slot(scene, p.filter, scene::LightKind::point, caps.point_moments));
     if (p.shadows && point_maps_used < caps.point_shadow_cubes) {
       shadow::PointLight pl;
       pl.position = to_d(p.position);
@@ -191,30 +199,13 @@ glm::mat4 camera_projection(const scene::Camera& c, double aspect, bool reverse_
 }
 
 std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments) {
-  const scene::Filter f = scene.shadows.filter;
-  return filter_index(f == scene::Filter::evsm2 && !sun_moments ? scene::Filter::pcf : f);
+  return scene::filter_index(usable_filter(scene.shadows.filter, scene::LightKind::sun, sun_moments));
 }
 
 std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene::Filter> own,
-                                 bool moments, bool sun_moments) {
-  const float slot = local_filter_slot(scene, own, moments);
+                                 scene::LightKind kind, bool moments, bool sun_moments) {
+  const float slot = local_filter_slot(scene, own, kind, moments);
   return slot >= 0.0f ? std::uint32_t(slot) : sun_filter_index(scene, sun_moments);
-}
-
-std::uint32_t filter_index(scene::Filter f) {
-  switch (f) {
-    case scene::Filter::hard:
-      return 0;
-    case scene::Filter::pcf:
-      return 1;
-    case scene::Filter::pcss:
-      return 2;
-    case scene::Filter::poisson:
-      return 3;
-    case scene::Filter::evsm2:
-      return 4;
-  }
-  return 1;
 }
 
 shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height) {
@@ -268,8 +259,7 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
   frame.bias =
       glm::vec4(sh.normal_offset_texels, sh.slope_bias, sh.constant_bias, sh.max_slope_bias);
   frame.filter_params =
-      glm::vec4(float(sh.pcf_radius), float(sh.pcss_quality), float(sh.poisson_taps),
-                std::max(1.0f, float(sh.pcf_radius) + 0.5f));
+      scene::filter_params(sh);
   frame.filter_world = glm::vec4(sh.constant_filter_width ? 1.0f : 0.0f,
                                  float(std::clamp(sh.evsm_blur, 0, 8)),
                                  sh.evsm_mips ? 1.0f : 0.0f, 0.0f);

@@ -3,6 +3,7 @@
 // tables' and the per-light tables'. Parsing, formatting and lookup: params.cpp.
 
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 
@@ -39,6 +40,20 @@ struct Row {
   bool required = false;
 };
 
+// A light's own filter must take the light's maps (the filter table: 2D maps, cubes).
+template <auto Lights, LightKind Kind>
+std::string light_filter_violation(const Scene& s, std::size_t i) {
+  if (i >= (s.*Lights).size() || !(s.*Lights)[i].filter) return "";
+  const Filter f = *(s.*Lights)[i].filter;
+  if (filter_accepts(f, Kind)) return "";
+  std::string takes;
+  for (const FilterSpec& spec : filter_table())
+    if (filter_accepts(spec.filter, Kind)) takes += (takes.empty() ? "" : ", ") + std::string(spec.name);
+  return "filter = '" + std::string(filter_spec(f).name) + "' does not take " +
+         (Kind == LightKind::point ? "a point light's cube maps" : "2D shadow maps") +
+         " (a " + (Kind == LightKind::point ? "point" : "spot") + " light takes " + takes + ")";
+}
+
 std::string pcss_violation(const Scene& s) {
   if (s.shadows.pcss_min_filter_texels > s.shadows.pcss_max_filter_texels)
     return "shadows.pcss_min_filter_texels = " + number_text(s.shadows.pcss_min_filter_texels) +
@@ -51,9 +66,9 @@ std::vector<Param> make_params() {
   using S = Scene;
   using A = ParamApply;
   using T = ParamType;
-  const std::vector<std::string_view> filters{"hard", "pcf", "pcss", "poisson", "evsm2"};
-  const std::vector<std::string_view> local_filters{"inherit", "hard",    "pcf",
-                                                    "pcss",    "poisson", "evsm2"};
+  const std::vector<std::string_view> filters = filter_names();  // the filter table's order
+  std::vector<std::string_view> local_filters{"inherit"};
+  local_filters.insert(local_filters.end(), filters.begin(), filters.end());
   const std::vector<std::string_view> fits{"box", "camera_sphere", "slice_sphere"};
   const std::vector<std::string_view> selections{"depth", "containment"};
   const std::vector<std::string_view> layouts{"cascades", "clipmap"};
@@ -182,7 +197,8 @@ std::vector<Param> make_params() {
        .doc = "this light's own filter; `inherit`: `[shadows]` `filter` (`evsm2`: EVSM2 moments "
               "of the map's linear depth, built for the lights that ask; `[shadows]` `evsm_*` "
               "keys apply)",
-       .choices = local_filters, .at = light_filter<&S::spots>()},
+       .choices = local_filters, .at = light_filter<&S::spots>(),
+       .check_at = light_filter_violation<&S::spots, LightKind::spot>},
       // [[point]]: one row for every point light, set as point[i].<name>
       {.key = "point.position", .type = T::vec3, .range = kAny, .apply = A::frame,
        .doc = "world position", .at = light_field<&S::points, &PointLight::position>(),
@@ -208,7 +224,8 @@ std::vector<Param> make_params() {
       {.key = "point.filter", .type = T::choice, .range = kAny, .apply = A::frame,
        .doc = "this light's own filter; `inherit`: `[shadows]` `filter` (`evsm2`: EVSM2 moments "
               "of the cube, built for the lights that ask; `[shadows]` `evsm_*` keys apply)",
-       .choices = local_filters, .at = light_filter<&S::points>()},
+       .choices = local_filters, .at = light_filter<&S::points>(),
+       .check_at = light_filter_violation<&S::points, LightKind::point>},
       {.key = "point.fit_to_camera", .type = T::boolean, .range = kAny, .apply = A::rebuild,
        .doc = "fit the cube to the camera (`shadow::fit_point_shadow`): only the faces that see "
               "an object in view, each object clipped to the view's box, are drawn (the others "

@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
@@ -332,7 +333,7 @@ std::string get_param(const Scene& scene, std::string_view key) {
 std::pair<std::string, std::string> split_set_flag(std::string_view value) {
   const auto eq = value.find('=');
   if (eq == std::string_view::npos || eq == 0)
-    throw Error("--set " + std::string(value) + ": expected KEY=VALUE, e.g. shadows.pcf_radius=2");
+    throw Error("--set " + std::string(value) + ": expected KEY=VALUE, e.g. shadows.resolution=4096");
   return {std::string(value.substr(0, eq)), std::string(value.substr(eq + 1))};
 }
 
@@ -437,12 +438,16 @@ std::string unused_reason(const Scene& scene, const Param& p, std::size_t light)
        name == "blend_band") &&
       clipmap)
     return "layout is clipmap";
-  if (name.starts_with("pcss_") && !uses(Filter::pcss)) return none_uses("pcss");
-  if (name == "poisson_taps" && !uses(Filter::poisson)) return none_uses("poisson");
-  if ((name == "pcf_radius" || name == "constant_filter_width") && !uses(Filter::pcf) &&
-      !uses(Filter::poisson))
-    return none_uses("pcf or poisson");
-  if (name.starts_with("evsm_") && !uses(Filter::evsm2)) return none_uses("evsm2");
+  // A filter's keys (the filter table's rows): something when no light uses a filter that reads
+  // the key.
+  std::string readers;
+  bool read = false;
+  for (const FilterSpec& f : filter_table())
+    if (std::find(f.keys.begin(), f.keys.end(), name) != f.keys.end()) {
+      readers += (readers.empty() ? "" : " or ") + std::string(f.name);
+      read = read || uses(f.filter);
+    }
+  if (!readers.empty() && !read) return none_uses(readers);
   if (name == "temporal_weight" && !scene.shadows.temporal) return "temporal is off";
   return "";
 }

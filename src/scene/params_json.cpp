@@ -1,8 +1,10 @@
 // The parameter table as JSON, for tools outside C++ (penumbra-tune reads its search space's
 // keys, types, ranges and a scene's values from it: penumbra-view --list-params).
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <penumbra/core/json.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <sstream>
@@ -65,6 +67,13 @@ std::string params_json(const Scene* scene) {
     for (size_t i = 0; i < p.choices.size(); ++i) o << (i ? ", " : "") << json_string(p.choices[i]);
     o << "], \"doc\": " << json_string(p.doc) << ", \"default\": " << json_string(default_text(p));
     o << ", \"per_light\": " << (p.per_light() ? "true" : "false");
+    // The filters that read a [shadows] key (the filter table's rows).
+    std::string readers;
+    if (p.table() == "shadows")
+      for (const FilterSpec& f : filter_table())
+        if (std::find(f.keys.begin(), f.keys.end(), p.name()) != f.keys.end())
+          readers += (readers.empty() ? "" : ", ") + json_string(f.name);
+    if (!readers.empty()) o << ", \"filters\": [" << readers << "]";
     if (scene) {
       const auto v = p.get ? p.get(*scene) : std::nullopt;
       o << ", \"value\": " << (v ? json_string(format_value(p, *v)) : std::string("null"));

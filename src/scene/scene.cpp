@@ -4,6 +4,7 @@
 #include <cmath>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <system_error>
@@ -101,12 +102,12 @@ Scene::Requirements Scene::requirements() const {
   for (std::size_t i = 0; i < spots.size() && i < kMaxSpotLights; ++i) {
     const SpotLight& spot = spots[i];
     r.spot_shadow_maps += spot.shadows ? 1 : 0;
-    r.spot_moments = r.spot_moments || (spot.shadows && spot.filter == Filter::evsm2);
+    r.spot_moments = r.spot_moments || (spot.shadows && spot.filter && filter_spec(*spot.filter).moments);
   }
   for (std::size_t i = 0; i < points.size() && i < kMaxPointLights; ++i) {
     const PointLight& point = points[i];
     r.point_shadow_cubes += point.shadows ? 1 : 0;
-    r.point_moments = r.point_moments || (point.shadows && point.filter == Filter::evsm2);
+    r.point_moments = r.point_moments || (point.shadows && point.filter && filter_spec(*point.filter).moments);
   }
   const bool has_light = sun.has_value() || !spots.empty() || !points.empty();
   r.contact_pass = contact.step_count > 0 && has_light;
@@ -119,7 +120,7 @@ Scene::Requirements Scene::requirements() const {
     }
   }
   r.mask_textures = std::uint32_t(mask_images().size());
-  r.sun_moments = r.sun_shadows && shadows.filter == Filter::evsm2;
+  r.sun_moments = r.sun_shadows && filter_spec(shadows.filter).moments;
   if (r.sun_shadows || r.spot_shadow_maps > 0 || r.point_shadow_cubes > 0) {
     r.analytic_spheres = std::uint32_t(analytic_spheres().size());
   }
@@ -171,42 +172,6 @@ int Scene::mask_image_index(std::uint32_t material,
   for (size_t i = 0; i < images.size(); ++i)
     if (same_mask_image(images[i], materials[material].mask_image)) return int(i);
   return -1;
-}
-
-int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube) {
-  const int r = std::clamp(shadows.pcf_radius, 0, shadow::kPcfMaxRadius);  // pcf_clamp_radius
-  const int tier = std::clamp(shadows.pcss_quality, 0, 2);
-  switch (filter) {
-    case Filter::hard:
-      return 1;
-    case Filter::pcf:
-      return cube ? (2 * r + 1) * (2 * r + 1) : (r + 1) * (r + 1);
-    case Filter::poisson:
-      return int(std::clamp(shadows.poisson_taps, 1u, std::uint32_t(shadow::kPcfMaxPoissonTaps)));
-    case Filter::pcss:
-      return (8 << tier) + (16 << tier);  // pcss_search_tap_count + pcss_filter_tap_count
-    case Filter::evsm2:
-      return 1;  // one bilinear fetch of the blurred moments (the blur is its own pass)
-  }
-  return 1;
-}
-
-double filter_reach_texels(Filter filter, const ShadowSettings& shadows) {
-  switch (filter) {
-    case Filter::hard:
-      return 1.0;
-    case Filter::pcf:
-      return double(std::clamp(shadows.pcf_radius, 0, shadow::kPcfMaxRadius)) + 1.0;
-    case Filter::poisson:
-      return std::ceil(std::max(1.0, double(shadows.pcf_radius) + 0.5)) + 1.0;
-    case Filter::pcss:
-      return std::ceil(std::max(double(shadows.pcss_search_texels),
-                                double(shadows.pcss_max_filter_texels))) +
-             1.0;
-    case Filter::evsm2:
-      return double(std::clamp(shadows.evsm_blur, 0, 8)) + 1.0;
-  }
-  return 1.0;
 }
 
 std::vector<std::string> shipped_scenes() {

@@ -26,7 +26,7 @@ struct CoverageMap {
   };
   struct Function {
     Line at;
-    std::string name;    // readable: "pcf_radius(float; vec2)"
+    std::string name;    // readable: "pcf_poisson_offset(int; vec2; float; vec2)"
     uint32_t block = 0;  // its entry block: times called
   };
   std::vector<std::string> files;
@@ -57,7 +57,7 @@ InstrumentedSpirv instrument_for_coverage(std::span<const uint32_t> spirv, uint3
                                           uint32_t binding,
                                           const std::function<bool(std::string_view)>& count_file);
 
-// glslang's mangled name ("pcf_radius(f1;vf2;") made readable ("pcf_radius(float; vec2)": an
+// glslang's mangled name ("pcf_safe_radius(f1;") made readable ("pcf_safe_radius(float)": an
 // LCOV function name holds no comma); types it does not know are kept as glslang wrote them.
 std::string demangle_glsl(std::string_view mangled);
 

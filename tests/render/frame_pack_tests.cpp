@@ -123,7 +123,7 @@ TEST(PackFrame, ShadowKeysReachTheFrameBlock) {
   scene::set_param(s, "render.view", "penumbra");
   scene::set_param(s, "render.exposure", "2");
   const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
-  EXPECT_EQ(f.frame.mode.z, filter_index(scene::Filter::poisson));
+  EXPECT_EQ(f.frame.mode.z, scene::filter_index(scene::Filter::poisson));
   EXPECT_EQ(f.frame.mode.w, uint32_t(scene::DebugView::penumbra));
   EXPECT_EQ(f.frame.filter_params, glm::vec4(3.0f, 2.0f, 24.0f, 3.5f));
   EXPECT_EQ(f.frame.pcss, glm::vec4(0.25f, 20.0f, 0.75f, 24.0f));
@@ -181,7 +181,7 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
   EXPECT_EQ(f.frame.spots[0].params.z, 0.125f);
   EXPECT_EQ(f.frame.points[0].params.z, 0.25f);
   // A light's own filter reaches its params.w; -1 means the scene's.
-  EXPECT_EQ(f.frame.points[0].params.w, float(filter_index(scene::Filter::pcss)));
+  EXPECT_EQ(f.frame.points[0].params.w, float(scene::filter_index(scene::Filter::pcss)));
   EXPECT_EQ(f.frame.spots[0].params.w, -1.0f);
   // Three spots declared, kMaxSpotLights (2) packed; the second casts no shadow.
   EXPECT_EQ(f.frame.counts.x, uint32_t(kMaxSpotLights));

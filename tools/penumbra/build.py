@@ -1,5 +1,6 @@
 """Where the build's executables are: --build DIR, else $PENUMBRA_BUILD, else ROOT/build; in an
 installed Penumbra (this package under <prefix>/share/penumbra/python), the prefix's bin/."""
+import json
 import os
 import subprocess
 
@@ -52,6 +53,18 @@ def run(cmd, env=None):
         tail = "\n".join((r.stdout + r.stderr).strip().splitlines()[-15:])
         raise ToolError(f"{' '.join(cmd)} exited {r.returncode}:\n{tail}")
     return r.stdout
+
+
+def filter_names(view):
+    """The filter table's names, in its order (penumbra-view --list-params: shadows.filter's
+    choices)."""
+    rows = json.loads(run([view, "--list-params"]))
+    return next(r["choices"] for r in rows if r["key"] == "shadows.filter")
+
+
+def filter_readers(rows):
+    """{key: the filters that read it} from penumbra-view --list-params's rows."""
+    return {r["key"]: set(r.get("filters", ())) for r in rows}
 
 
 def git_commit(short="--short"):

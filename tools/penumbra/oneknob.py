@@ -20,9 +20,16 @@ def local_map_sets(features, factor):
     return sets
 
 
-def configurations(has_sun, has_contact, quick, max_map, lights=None):
+# The filters this sweep knows how to vary; any other filter of the table (filters=) is measured
+# once, with its keys as the scene has them.
+SWEPT_FILTERS = ("hard", "pcf", "poisson", "pcss", "evsm2")
+
+
+def configurations(has_sun, has_contact, quick, max_map, lights=None, filters=None):
     """(label, sets) pairs: the scene's defaults first, then one change at a time (sets: a list
-    of (key, value text)). lights: the scene's scenefile.Features, for its local lights' maps."""
+    of (key, value text)). lights: the scene's scenefile.Features, for its local lights' maps.
+    filters: the filter table's names (build.filter_names); each one not in SWEPT_FILTERS gets
+    one configuration of its own."""
     c = [("defaults", [])]
     c += [("hard", [("shadows.filter", "hard")])]
     radii = [1] if quick else [0, 1, 2, 3, 5]
@@ -39,6 +46,8 @@ def configurations(has_sun, has_contact, quick, max_map, lights=None):
         c += [(f"evsm2 blur={b}", [("shadows.filter", "evsm2"), ("shadows.evsm_blur", str(b))])
               for b in blurs]
         c += [("evsm2 fp32", [("shadows.filter", "evsm2"), ("shadows.evsm_fp16", "false")])]
+    if not quick:
+        c += [(f, [("shadows.filter", f)]) for f in (filters or ()) if f not in SWEPT_FILTERS]
     if quick:
         return c
     if has_contact:

@@ -9,6 +9,7 @@
 #include <optional>
 #include <glm/glm.hpp>
 #include <penumbra/render/frame_types.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <penumbra/shadow/cascades.hpp>
 #include <penumbra/shadow/gpu_types.hpp>
@@ -69,15 +70,18 @@ glm::mat4 camera_projection(const scene::Camera& camera, double aspect, bool rev
 // 1 + kMaxSpotLights + i point i, as the forward pass numbers them), or -1 without any light.
 int primary_light_slot(const scene::Scene& scene);
 
-// The shader's filter constant (kFilterHard ...) of a scene filter.
-std::uint32_t filter_index(scene::Filter filter);
-// The sun's filter as the frame carries it (FrameGpu::mode.z): the scene's, except that evsm2
-// without its moments (a renderer built for another filter) falls back to pcf.
+// The shader's filter constant (kFilterHard ...) of a scene filter: scene::filter_index
+// (filters.hpp), its row in the filter table.
+// The sun's filter as the frame carries it (FrameGpu::mode.z): the scene's, except that a filter
+// without its moments (a renderer built for another filter) resolves as its fallback (evsm2:
+// pcf).
 std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments);
-// The filter a spot or point light is resolved with: its own (`own`; evsm2 needs its moments,
-// `moments`, else pcf), else the scene's as the frame carries it (sun_filter_index).
+// The filter a spot or point light (`kind`) is resolved with: its own (`own`; one that needs
+// moments without them, `moments`, or that its maps cannot take resolves as its fallback), else
+// the scene's as the frame carries it (sun_filter_index), or its fallback where the light cannot
+// use it.
 std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene::Filter> own,
-                                 bool moments, bool sun_moments);
+                                 scene::LightKind kind, bool moments, bool sun_moments);
 
 // Everything the GPU reads for frame `frame_index` of `scene` at width x height.
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,

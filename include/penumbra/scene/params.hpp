@@ -3,7 +3,7 @@
 // The scene parameters: one row per key of the singleton tables ([camera], [sun], [shadows],
 // [contact], [render]) and of the per-light tables ([[spot]], [[point]]: one row serves every
 // light of its kind, named by index in set/get: "spot[0].resolution"). Each row carries the key as written in scene files and scripts
-// ("shadows.pcf_radius"), its type, range, choice names, whether a change needs a rebuild of
+// ("shadows.cascades"), its type, range, choice names, whether a change needs a rebuild of
 // the renderer or only a new frame, its documentation line and an accessor on Scene. The scene
 // file reader, the runtime's set/get, the ImGui panel, penumbra-view's --view/--filter names and
 // the key tables of docs/scenes.md all come from it (a test walks it against each of them).
@@ -144,7 +144,7 @@ std::string expectation(const Param& p);
 // The default as docs/scenes.md writes it, from a default Scene (and a default Sun).
 std::string default_text(const Param& p);
 
-// The docs/scenes.md row of a key: "| `pcf_radius` | integer | 1 | [0, 8]; texels |"; and every
+// The docs/scenes.md row of a key: "| `cascades` | integer | 4 | [1, 4]; sun cascades |"; and every
 // row of a table, one per line (a test checks docs/scenes.md holds each).
 std::string markdown_row(const Param& p);
 std::string markdown_rows(std::string_view table);
@@ -155,7 +155,7 @@ std::string markdown_rows(std::string_view table);
 // penumbra-view --list-params prints it.
 std::string params_json(const Scene* scene);
 
-// get/set by key and text ("shadows.pcf_radius", "spot[0].resolution"), with the row's checks;
+// get/set by key and text ("shadows.cascades", "spot[0].resolution"), with the row's checks;
 // set leaves the scene unchanged on error, and names the light that is not there.
 std::string get_param(const Scene& scene, std::string_view key);
 void set_param(Scene& scene, std::string_view key, std::string_view text);

@@ -312,18 +312,7 @@ std::filesystem::path find_scene(std::string_view name_or_path);
 // The names of the shipped scenes (the compiled-in scene directory's *.toml stems, sorted).
 std::vector<std::string> shipped_scenes();
 
-// Shadow-map fetches per shaded pixel of one evaluation of a light's filter, as the library's
-// filters take them (penumbra-bench's roofline column): hard 1; box-grid PCF (r+1)^2 bilinear
-// compare taps on 2D maps (pcf_grid_array) and (2r+1)^2 one texel apart on cubes
-// (pcf_cube_array); Poisson its taps; PCSS the tier's search plus filter taps (8+16, 16+32,
-// 32+64), an upper bound: pixels with no blocker or a full one skip the filter. Cascade blend
-// bands evaluate the sun's filter twice and are not counted.
-int filter_fetches_per_pixel(Filter filter, const ShadowSettings& shadows, bool cube);
-// Texels a filter reads beyond the receiver's own, as the sun's resolve counts them for cascade
-// containment (shadow_resolve.comp's filter_reach_texels): hard 1 (a bilinear compare tap), PCF
-// r + 1, Poisson its disk's radius + 1, PCSS the wider of its blocker search and its largest
-// filter + 1, EVSM2 its blur + 1.
-double filter_reach_texels(Filter filter, const ShadowSettings& shadows);
+// A filter's fetches, reach and the rest: filters.hpp.
 
 // The names used in scene files, for printing.
 std::string_view to_string(Filter filter);

@@ -81,9 +81,11 @@ SpecValues sun_resolve_specialization(const FrameResources& r) {
 SpecValues local_resolve_specialization(const FrameResources& r) {
   uint32_t spots = 0, points = 0;
   for (const auto& s : r.scene.spots)
-    spots |= 1u << local_filter_index(r.scene, s.filter, r.req.spot_moments, r.req.sun_moments);
+    spots |= 1u << local_filter_index(r.scene, s.filter, scene::LightKind::spot, r.req.spot_moments,
+                                    r.req.sun_moments);
   for (const auto& p : r.scene.points)
-    points |= 1u << local_filter_index(r.scene, p.filter, r.req.point_moments, r.req.sun_moments);
+    points |= 1u << local_filter_index(r.scene, p.filter, scene::LightKind::point, r.req.point_moments,
+                                     r.req.sun_moments);
   return {{0, "kSpotFilters", spots},
           {1, "kPointFilters", points},
           {2, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u}};
