@@ -24,6 +24,42 @@ bool filter_allowed(uint allowed, uint mode) {
   return mode < 32u && (allowed & (1u << mode)) != 0u;
 }
 
+// The filter keys' values as the frame carries them (FrameGpu.filter_params: x the PCF radius,
+// y the PCSS tier, z the Poisson taps, w the Poisson disk's radius), and the PCSS and EVSM2
+// numbers a reach needs.
+struct FilterExtent {
+  vec4 params;
+  float pcss_search_texels;      // PCSS: the blocker search's largest radius
+  float pcss_min_filter_texels;  // PCSS: its smallest filter radius
+  float evsm_blur;               // EVSM2: the moments' blur radius in texels
+};
+
+// Texels the filter reaches beyond the receiver's own: the border a cascade chosen by
+// containment must hold around it (the filter table's reach, filters.cpp). hard 1 (one bilinear
+// compare tap), PCF r + 1, the disks their radius rounded up + 1, PCSS the blocker search + 1,
+// EVSM2 its blur + 1 (then bilinear).
+float shadow_filter_reach_texels(uint mode, FilterExtent e) {
+  if (mode == kFilterPcf) return e.params.x + 1.0;
+  if (mode == kFilterPoisson) return ceil(e.params.w) + 1.0;
+  if (mode == kFilterPcss) return ceil(e.pcss_search_texels) + 1.0;
+  if (mode == kFilterEvsm2) return e.evsm_blur + 1.0;
+  return 1.0;
+}
+
+// The reach beyond one texel that widens the receiver's normal offset
+// (filter_normal_offset_texels, bias.glsl). PCF's outer taps are bilinear compares centred
+// `radius` texels out, which read up to one texel beyond: a spot or point light counts that
+// texel (`local`); without it PCF radius 1 put a moire of acne over the indoor ceiling, which
+// the point light grazes (false shadow 2.67%, mean |dV| 0.0085; with it 0.59% and 0.0036,
+// docs/accuracy.md). The sun's cascades measured no better with it and keep theirs. hard and
+// EVSM2: none (its bound needs no wider offset).
+float shadow_filter_offset_reach(uint mode, FilterExtent e, bool local) {
+  if (mode == kFilterPcf) return e.params.x + (local ? 1.0 : 0.0);
+  if (mode == kFilterPoisson) return e.params.w;
+  if (mode == kFilterPcss) return e.pcss_min_filter_texels;
+  return 0.0;
+}
+
 // What a lookup in a 2D array of maps needs besides the maps.
 struct ShadowLookup2D {
   vec3 coord;         // map uv and the receiver's compare depth

@@ -90,18 +90,15 @@ uint light_filter(LightGpu light) {
 }
 
 // The normal offset for the light's filter: wider than one texel, it grows with the reach
-// (filter_normal_offset_texels). PCF's outer taps are bilinear compares centred `radius` texels
-// out, which read texels up to one more texel beyond: its reach is radius + 1. Without that
-// texel, PCF radius 1 put a moire of acne over the indoor ceiling, which the point light grazes
-// (false shadow 2.67%, mean |dV| 0.0085; with it 0.59% and 0.0036, docs/accuracy.md). The sun's
-// cascades and Poisson measured no better with it (the grazing sun leaks more) and keep theirs.
+// (shadow_filter_offset_reach: a spot or point light counts PCF's bilinear texel).
 float normal_offset_texels(LightGpu light) {
-  uint mode = light_filter(light);
-  float reach = mode == kFilterPcf       ? frame.filter_params.x + 1.0
-                : mode == kFilterPoisson ? frame.filter_params.w
-                : mode == kFilterPcss    ? frame.pcss.z
-                                         : 0.0;
-  return filter_normal_offset_texels(frame.bias.x, reach);
+  FilterExtent e;
+  e.params = frame.filter_params;
+  e.pcss_search_texels = frame.pcss.y;
+  e.pcss_min_filter_texels = frame.pcss.z;
+  e.evsm_blur = frame.filter_world.y;
+  return filter_normal_offset_texels(frame.bias.x,
+                                     shadow_filter_offset_reach(light_filter(light), e, true));
 }
 
 PcssLocalParams local_params(float radius, float texel_at_unit, float near, float far) {

@@ -46,6 +46,15 @@ uint sun_filters() {
                                         : 1u << kSunFilter;
   return PENUMBRA_SUN_MOMENTS != 0 ? all : all & ~(1u << kFilterEvsm2);
 }
+// The sun's filter keys (shadow_filter.glsl): PCSS's from its block.
+FilterExtent sun_extent() {
+  FilterExtent e;
+  e.params = frame.filter_params;
+  e.pcss_search_texels = shadow.pcss.y;
+  e.pcss_min_filter_texels = shadow.pcss.z;
+  e.evsm_blur = frame.filter_world.y;
+  return e;
+}
 bool penumbra_view() {
   return kPenumbraView == kFromFrame ? frame.mode.w == kViewPenumbra : kPenumbraView == 1u;
 }
@@ -65,10 +74,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
   uint filter_mode = sun_filter();
   bool constant_width =
       frame.filter_world.x != 0.0 && (filter_mode == kFilterPcf || filter_mode == kFilterPoisson);
-  float reach = filter_mode == kFilterPcf       ? frame.filter_params.x
-                : filter_mode == kFilterPoisson ? frame.filter_params.w
-                : filter_mode == kFilterPcss    ? shadow.pcss.z
-                                                : 0.0;  // hard; evsm2 (the bound needs no wider offset)
+  float reach = shadow_filter_offset_reach(filter_mode, sun_extent(), false);
   // Constant width in world units: a Poisson disk whose radius is fixed in cascade 0's texels
   // and so shrinks, in texels, in the coarser cascades.
   float world_radius = filter_mode == kFilterPcf ? frame.filter_params.x + 0.5 : frame.filter_params.w;
@@ -127,24 +133,13 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
                                 shadow_compare, shadow_depth, SUN_MOMENTS, q);
 }
 
-// Texels the configured filter reaches beyond the receiver's own: what a cascade chosen by
-// containment must hold around it (PCSS: its blocker search, the widest of its reads).
-float filter_reach_texels() {
-  uint filter_mode = sun_filter();
-  if (filter_mode == kFilterPcf) return frame.filter_params.x + 1.0;
-  if (filter_mode == kFilterPoisson) return ceil(frame.filter_params.w) + 1.0;
-  if (filter_mode == kFilterPcss) return ceil(shadow.pcss.y) + 1.0;
-  if (filter_mode == kFilterEvsm2) return frame.filter_world.y + 1.0;  // the blur, then bilinear
-  return 1.0;  // hard: one bilinear compare tap
-}
-
 // The finest cascade whose map holds the receiver with the filter's reach; count when none.
 // The library's select_cascade_by_position, reading each matrix from the block in place: handing
 // it a local mat4[8] made llvmpipe lower every dynamic index into selects over 128 floats, about
 // 2 s of LLVM compile on each new version of this shader (docs/hot-reload.md).
 int select_cascade_containing(vec3 p, int count) {
   int n = clamp(count, 0, kCascadeMaxCount);
-  float border = filter_reach_texels();
+  float border = shadow_filter_reach_texels(sun_filter(), sun_extent());
   float resolution = float(shadow.counts.z);
   for (int i = 0; i < n; ++i)
     if (shadow_coord_in_bounds(world_to_shadow_coord(shadow.cascades[i].view_proj, p), border,
