@@ -10,6 +10,7 @@
 #include <cmath>
 #include <fstream>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <set>
@@ -64,6 +65,16 @@ struct Sample {
   std::string toml, text;
 };
 
+// Whether `value` set on the row keeps the row's cross-key checks against the other defaults.
+bool passes_checks(const Param& p, const ParamValue& value) {
+  Scene scene = parse(kLit);
+  p.set(scene, value);
+  std::string violation = p.check ? p.check(scene) : std::string();
+  for (const Param* q : params_of(p.table()))  // a light's checks are its table's
+    if (violation.empty() && q->check_at) violation = q->check_at(scene, 0);
+  return violation.empty();
+}
+
 Sample sample(const Param& p) {
   const std::string def = default_text(p);
   switch (p.type) {
@@ -71,14 +82,7 @@ Sample sample(const Param& p) {
       for (double x : {0.37, 1.7, 3.25, 0.0125, 1e-4, 45.5, 5000.0}) {
         std::ostringstream s;
         s << x;
-        if (!p.range.contains(x) || s.str() == def) continue;
-        // In range and within the row's cross-key checks against the other defaults.
-        Scene scene = parse(kLit);
-        p.set(scene, x);
-        std::string violation = p.check ? p.check(scene) : std::string();
-        for (const Param* q : params_of(p.table()))  // a light's checks are its table's
-          if (violation.empty() && q->check_at) violation = q->check_at(scene, 0);
-        if (!violation.empty()) continue;
+        if (!p.range.contains(x) || s.str() == def || !passes_checks(p, x)) continue;
         return {s.str(), s.str()};
       }
       break;
@@ -89,10 +93,15 @@ Sample sample(const Param& p) {
     }
     case ParamType::boolean:
       return def == "true" ? Sample{"false", "false"} : Sample{"true", "true"};
-    case ParamType::choice: {
-      const std::string v(p.choices.back() == def ? p.choices.front() : p.choices.back());
-      return {"\"" + v + "\"", v};
-    }
+    case ParamType::choice:
+      // The last choice that is not the default and that the row's checks take (a point
+      // light's filter must take cube maps).
+      for (std::size_t i = p.choices.size(); i-- > 0;) {
+        const std::string v(p.choices[i]);
+        if (v == def || !passes_checks(p, static_cast<std::int64_t>(i))) continue;
+        return {"\"" + v + "\"", v};
+      }
+      break;
     case ParamType::vec3:
       return {"[0.25, 0.5, 0.75]", "0.25,0.5,0.75"};
     case ParamType::direction:
@@ -318,7 +327,7 @@ TEST(Params, ChoicesAreTheEnumsNames) {
   EXPECT_EQ(to_string(CascadeFit::slice_sphere), "slice_sphere");
   EXPECT_EQ(to_string(DebugView::penumbra), "penumbra");
   EXPECT_EQ(param("render.view").choices.size(), std::size_t(DebugView::penumbra) + 1);
-  EXPECT_EQ(param("shadows.filter").choices.size(), std::size_t(Filter::evsm2) + 1);
+  EXPECT_EQ(param("shadows.filter").choices.size(), filter_table().size());
   EXPECT_THAT(
       [] {
         try {
@@ -353,7 +362,12 @@ TEST(Params, UnusedRowsSayWhyForEachShippedScene) {
   const Scene def = load_scene(find_scene("default"));  // hard sun, cascades, temporal on
   EXPECT_EQ(reason(def, "shadows.cascades"), "");
   EXPECT_EQ(reason(def, "shadows.clipmap_levels"), "layout is cascades");
-  EXPECT_EQ(reason(def, "shadows.pcf_radius"), "no light uses pcf or poisson");
+  std::string pcf_readers;  // the filters that read pcf_radius, as the filter table lists them
+  for (const FilterSpec& f : filter_table())
+    if (std::find(f.keys.begin(), f.keys.end(), "pcf_radius") != f.keys.end())
+      pcf_readers += (pcf_readers.empty() ? "" : " or ") + std::string(f.name);
+  EXPECT_EQ(pcf_readers.substr(0, 14), "pcf or poisson");
+  EXPECT_EQ(reason(def, "shadows.pcf_radius"), "no light uses " + pcf_readers);
   EXPECT_EQ(reason(def, "shadows.evsm_blur"), "no light uses evsm2");
   EXPECT_EQ(reason(def, "shadows.temporal_weight"), "");
   EXPECT_EQ(reason(def, "contact.thickness"), "");

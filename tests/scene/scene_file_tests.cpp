@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <glm/gtc/matrix_transform.hpp>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <vector>
@@ -331,10 +332,12 @@ TEST(SceneFile, ALightsOwnFilterOverridesTheScenes) {
                    .points[0]
                    .filter.has_value());
   const std::string text = "[[point]]\nposition = [1, 2, 0]\nfilter = \"pfc\"\n" + kBox;
-  EXPECT_THAT(error_of(text),
-              HasSubstr(at(text, "filter") + "[[point]] #1 filter: unknown value 'pfc'; valid "
-                                             "values: inherit, hard, pcf, pcss, poisson, evsm2 (did "
-                                             "you mean 'pcf'?)"));
+  std::string names = "inherit";  // the filter table's, in its order
+  for (std::string_view n : filter_names()) names += ", " + std::string(n);
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "filter") +
+                                        "[[point]] #1 filter: unknown value 'pfc'; valid values: " +
+                                        names + " (did you mean 'pcf'?)"));
+  EXPECT_THAT(names, ::testing::StartsWith("inherit, hard, pcf, pcss, poisson, evsm2"));
   // A spot or point light's own evsm2 asks for its own moments, and only those.
   const Scene spot_evsm =
       parse("[[spot]]\nposition = [0, 3, 0]\ntarget = [4, 0, 0]\nfilter = \"evsm2\"\n" + kBox);
