@@ -10,6 +10,7 @@
 #include <chrono>
 #include <optional>
 #include <penumbra/core/error.hpp>
+#include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <set>
@@ -474,7 +475,7 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
     std::string scene, filter, view;
     std::optional<scene::Filter> spot, point;  // the lights' own filters
   };
-  const std::vector<Case> cases{
+  std::vector<Case> cases{
       {"default", "hard", "lit", {}, {}},
       {"default", "pcf", "penumbra", {}, {}},
       {"default", "pcss", "lit", {}, {}},
@@ -484,6 +485,14 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
       {"indoor", "poisson", "lit", {}, {}},
       {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
       {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2}};
+  // Every other filter of the table, on the sun and on the local lights.
+  for (const scene::FilterSpec& f : scene::filter_table()) {
+    const bool listed = std::any_of(cases.begin(), cases.end(),
+                                    [&](const Case& c) { return c.filter == f.name; });
+    if (listed || f.moments) continue;  // evsm2: its moments are a build of their own
+    cases.push_back({"default", std::string(f.name), "lit", {}, {}});
+    cases.push_back({"indoor", std::string(f.name), "lit", {}, {}});
+  }
   for (const Case& c : cases) {
     scene::Scene sc = small_scene(c.scene);
     scene::set_param(sc, "shadows.filter", c.filter);
