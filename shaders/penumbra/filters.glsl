@@ -10,6 +10,7 @@ const uint kFilterPcf = 1u;  // pcf
 const uint kFilterPcss = 2u;  // pcss
 const uint kFilterPoisson = 3u;  // poisson
 const uint kFilterEvsm2 = 4u;  // evsm2
-const uint kFilterCount = 5u;
+const uint kFilterVogel = 5u;  // vogel
+const uint kFilterCount = 6u;
 
 #endif

@@ -40,7 +40,7 @@ struct FilterExtent {
 // EVSM2 its blur + 1 (then bilinear).
 float shadow_filter_reach_texels(uint mode, FilterExtent e) {
   if (mode == kFilterPcf) return e.params.x + 1.0;
-  if (mode == kFilterPoisson) return ceil(e.params.w) + 1.0;
+  if (mode == kFilterPoisson || mode == kFilterVogel) return ceil(e.params.w) + 1.0;
   if (mode == kFilterPcss) return ceil(e.pcss_search_texels) + 1.0;
   if (mode == kFilterEvsm2) return e.evsm_blur + 1.0;
   return 1.0;
@@ -55,7 +55,7 @@ float shadow_filter_reach_texels(uint mode, FilterExtent e) {
 // EVSM2: none (its bound needs no wider offset).
 float shadow_filter_offset_reach(uint mode, FilterExtent e, bool local) {
   if (mode == kFilterPcf) return e.params.x + (local ? 1.0 : 0.0);
-  if (mode == kFilterPoisson) return e.params.w;
+  if (mode == kFilterPoisson || mode == kFilterVogel) return e.params.w;
   if (mode == kFilterPcss) return e.pcss_min_filter_texels;
   return 0.0;
 }
@@ -96,6 +96,9 @@ float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compa
   if (filter_allowed(allowed, kFilterPoisson) && mode == kFilterPoisson)
     return pcf_poisson_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
                              q.texel);
+  if (filter_allowed(allowed, kFilterVogel) && mode == kFilterVogel)
+    return pcf_vogel_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
+                           q.texel);
   if (filter_allowed(allowed, kFilterEvsm2) && mode == kFilterEvsm2) {
     vec3 c = vec3(q.coord.xy, q.moments_depth);
     if (q.footprint)

@@ -25,6 +25,7 @@ double disk_reach(const ShadowSettings& s) {
 
 constexpr std::string_view kPcfKeys[] = {"pcf_radius", "constant_filter_width"};
 constexpr std::string_view kPoissonKeys[] = {"pcf_radius", "constant_filter_width", "poisson_taps"};
+constexpr std::string_view kVogelKeys[] = {"pcf_radius", "poisson_taps"};
 constexpr std::string_view kPcssKeys[] = {"pcss_quality", "pcss_search_texels",
                                           "pcss_min_filter_texels", "pcss_max_filter_texels",
                                           "pcss_confidence"};
@@ -85,6 +86,16 @@ const FilterSpec kTable[] = {
      .reach_texels =
          [](const ShadowSettings& s) { return double(std::clamp(s.evsm_blur, 0, 8)) + 1.0; },
      .doc = "exponential variance shadow maps: blurred moments, one bilinear fetch"},
+    {.filter = Filter::vogel,
+     .name = "vogel",
+     .constant = "kFilterVogel",
+     .cubes = false,  // a point light's poisson is already a Vogel disk on its cube
+     .fallback = Filter::poisson,
+     .keys = kVogelKeys,
+     .fetches_per_pixel = [](const ShadowSettings& s, bool) { return poisson_taps(s); },
+     .reach_texels = disk_reach,
+     .doc = "poisson_taps compares on a rotated Vogel (golden-angle) disk of radius pcf_radius + "
+            "0.5: even coverage at any tap count"},
 };
 
 }  // namespace

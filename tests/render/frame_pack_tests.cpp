@@ -211,6 +211,21 @@ TEST(PackFrame, LocalLightsGetMapsInOrderAndUnshadowedOnesNone) {
 // A point light fitted to the camera (fit_to_camera, shadow::fit_point_shadow): in the space
 // scene looking out of the belt, away from the star, the faces behind the camera are not drawn;
 // looking at the star every face sees something; an unfitted light draws all six.
+// vogel takes 2D maps only (the filter table): the sun and a spot light inheriting it use it; a
+// point light inheriting it resolves as its fallback, poisson (a Vogel disk on cubes).
+TEST(PackFrame, APointLightInheritingVogelUsesItsFallback) {
+  scene::Scene s = parse(kScene);
+  s.shadows.filter = scene::Filter::vogel;
+  const PackedFrame f = pack_frame(s, 640, 360, caps_of(s), 0);
+  EXPECT_EQ(f.frame.mode.z, scene::filter_index(scene::Filter::vogel));
+  EXPECT_EQ(f.frame.spots[0].params.w, -1.0f);  // the scene's: vogel
+  EXPECT_EQ(f.frame.points[0].params.w, float(scene::filter_index(scene::Filter::poisson)));
+  EXPECT_EQ(local_filter_index(s, std::nullopt, scene::LightKind::point, false, false),
+            scene::filter_index(scene::Filter::poisson));
+  EXPECT_EQ(local_filter_index(s, std::nullopt, scene::LightKind::spot, false, false),
+            scene::filter_index(scene::Filter::vogel));
+}
+
 TEST(PackFrame, AFittedPointLightDrawsOnlyTheFacesTheCameraSees) {
   scene::Scene s = scene::load_scene(scene::find_scene("space"));
   ASSERT_FALSE(s.points.empty());

@@ -788,6 +788,20 @@ TEST(SceneErrors, ValuesOutOfRange) {
               HasSubstr("[camera] up is parallel to the view direction"));
 }
 
+// vogel takes 2D maps only: a point light's own vogel is refused at its line; the sun and a
+// spot light take it.
+TEST(SceneErrors, AVogelFilterOnAPointLightIsRefused) {
+  const std::string text = "[[point]]\nposition = [1, 2, 0]\nfilter = \"vogel\"\n" + kBox;
+  EXPECT_THAT(error_of(text),
+              HasSubstr(at(text, "filter") + "[[point]] #1 filter = 'vogel' does not take a point "
+                                             "light's cube maps (a point light takes hard, pcf, "
+                                             "pcss, poisson, evsm2)"));
+  const Scene ok = parse("[shadows]\nfilter = \"vogel\"\n[[spot]]\nposition = [0, 3, 0]\n"
+                         "target = [4, 0, 0]\nfilter = \"vogel\"\n" + kBox);
+  EXPECT_EQ(ok.shadows.filter, Filter::vogel);
+  EXPECT_EQ(ok.spots[0].filter, Filter::vogel);
+}
+
 TEST(SceneErrors, UnknownEnumValuesListTheValidOnes) {
   const std::string text = "[shadows]\nfilter = \"pfc\"\n" + kBox;
   EXPECT_THAT(error_of(text),

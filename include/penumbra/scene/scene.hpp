@@ -105,7 +105,7 @@ struct Sun {
 // evsm2: exponential variance shadow maps: the sun's cascades, and a spot or point light's maps
 // when the light asks for it itself (its own filter); a spot or point light without a filter of
 // its own uses pcf under the scene's evsm2.
-enum class Filter { hard, pcf, pcss, poisson, evsm2 };
+enum class Filter { hard, pcf, pcss, poisson, evsm2, vogel };
 
 // How many spot and point lights the renderer shades (render::kMaxSpotLights and
 // kMaxPointLights, the frame's LightGpu arrays): a scene file with more is an error.
