@@ -359,6 +359,7 @@ int run(int argc, char** argv) {
   if (o.list_params) {  // the table and the scene's values, without a device
     penumbra::scene::Scene scene =
         penumbra::scene::load_scene(penumbra::scene::find_scene(o.scene));
+    if (o.move) penumbra::scene::translate_scene(scene, *o.move);
     if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
     penumbra::scene::set_params(scene, o.sets);
     std::printf("%s", penumbra::scene::params_json(&scene).c_str());
@@ -400,6 +401,7 @@ int run(int argc, char** argv) {
 
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
+  if (o.move) penumbra::scene::translate_scene(scene, *o.move);
   if (!o.filter.empty()) penumbra::scene::set_param(scene, "shadows.filter", o.filter);
   penumbra::scene::set_params(scene, o.sets);
   const uint32_t frames = o.frames ? o.frames : std::max(1u, scene.render.frames);

@@ -165,7 +165,18 @@ Options parse_options(int argc, char** argv) {
       "--set", [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
       "override a parameter-table key after loading, e.g. --set shadows.resolution=4096 "
       "(docs/scenes.md lists the keys)");
+  app.option(
+      "--move",
+      [&](const std::string& v) {
+        const auto m = cli::triple("--move", v);
+        o.move = glm::dvec3(m[0], m[1], m[2]);
+      },
+      "move the whole scene (objects, lights, camera) by X,Y,Z metres after loading: the same "
+      "world far from the origin",
+      "X,Y,Z");
   app.parse(argc, argv);
+  if (o.move && !o.scripts.empty())
+    throw Error("--move does not combine with --script or --command");
   if (!o.sets.empty() && !o.scripts.empty())
     throw Error(
         "--set does not combine with --script or --command (use the command 'set KEY "

@@ -4,6 +4,7 @@
 // choices).
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <penumbra/scene/scene.hpp>
 #include <string>
 #include <string_view>
@@ -35,6 +36,7 @@ struct Options {
   // Automation: --script FILE ("-": stdin) and --command LINE, in the order given.
   std::vector<std::pair<std::string, std::string>> scripts;  // (kind, file or line)
   std::vector<std::pair<std::string, std::string>> sets;     // --set KEY=VALUE, in order
+  std::optional<glm::dvec3> move;  // --move X,Y,Z: the whole scene moved (translate_scene)
 };
 
 // The names of --view and --filter: the parameter table's choices, in their order.

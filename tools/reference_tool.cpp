@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <map>
+#include <optional>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/json.hpp>
 #include <penumbra/core/stats.hpp>
@@ -42,6 +43,7 @@ struct Options {
   bool cache = true;
   fs::path cache_dir;
   std::vector<std::pair<std::string, std::string>> sets;  // --set KEY=VALUE, in order
+  std::optional<glm::dvec3> move;                         // --move X,Y,Z
   std::vector<penumbra::reference::CameraPath> flicker;   // --flicker
   uint32_t timing_frames = 0;                             // --timing-frames
   bool images = true;                                     // --no-images
@@ -65,6 +67,15 @@ Options parse(int argc, char** argv) {
       "--set", [&](const std::string& v) { o.sets.push_back(penumbra::scene::split_set_flag(v)); },
       "override a parameter-table key after loading, e.g. "
       "--set shadows.constant_bias=0.01 (docs/scenes.md lists the keys); repeatable");
+  app.option(
+      "--move",
+      [&](const std::string& v) {
+        const auto m = penumbra::cli::triple("--move", v);
+        o.move = glm::dvec3(m[0], m[1], m[2]);
+      },
+      "move the whole scene (objects, lights, camera) by X,Y,Z metres after loading: the same "
+      "world far from the origin",
+      "X,Y,Z");
   app.option(
       "--out", [&](const std::string& v) { o.out = v; },
       "where the PNGs and metrics.json go (default out/<scene>/reference)");
@@ -184,6 +195,7 @@ int run(int argc, char** argv) {
   Options o = parse(argc, argv);
   const fs::path scene_file = penumbra::scene::find_scene(o.scene);
   penumbra::scene::Scene scene = penumbra::scene::load_scene(scene_file);
+  if (o.move) penumbra::scene::translate_scene(scene, *o.move);
   penumbra::scene::set_params(scene, o.sets);
   if (o.out.empty()) o.out = fs::path("out") / scene.name / "reference";
   if (o.cache)

@@ -176,6 +176,26 @@ double number(const std::string& flag, const std::string& v, double lo, double h
   return x;
 }
 
+std::array<double, 3> triple(const std::string& flag, const std::string& v) {
+  std::array<double, 3> out{};
+  std::size_t at = 0, n = 0;
+  for (; n < 3 && at <= v.size(); ++n) {
+    const std::size_t comma = std::min(v.find(',', at), v.size());
+    const std::string part = v.substr(at, comma - at);
+    try {
+      std::size_t used = 0;
+      out[n] = std::stod(part, &used);
+      if (used != part.size() || !std::isfinite(out[n])) throw std::invalid_argument(part);
+    } catch (const std::exception&) {
+      throw Error(flag + " " + v + ": '" + part + "' is not a finite number (expected X,Y,Z)");
+    }
+    at = comma + 1;
+  }
+  if (n != 3 || at <= v.size())
+    throw Error(flag + " " + v + ": expected three numbers X,Y,Z");
+  return out;
+}
+
 std::string one_of(const std::string& flag, const std::string& v,
                    const std::vector<std::string>& choices) {
   if (std::find(choices.begin(), choices.end(), v) != choices.end()) return v;

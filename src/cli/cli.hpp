@@ -4,6 +4,7 @@
 // reports an unknown flag or a missing value; each value is checked as it is read, so an error
 // names the flag and the value ("--frames 0: out of range; must be in [1, 10000]"). CLI11 is
 // included by cli.cpp alone (about 14 s of compile per file that includes it).
+#include <array>
 #include <cstdint>
 #include <functional>
 #include <memory>
@@ -63,6 +64,8 @@ std::pair<std::uint32_t, std::uint32_t> size(const std::string& flag, const std:
                                              std::uint32_t lo, std::uint32_t hi);
 // A finite number in [lo, hi].
 double number(const std::string& flag, const std::string& v, double lo, double hi);
+// Three finite numbers "X,Y,Z" ("--move 1,2: expected three numbers X,Y,Z").
+std::array<double, 3> triple(const std::string& flag, const std::string& v);
 // One of `choices`: "--mode x: expected one of a, b".
 std::string one_of(const std::string& flag, const std::string& v,
                    const std::vector<std::string>& choices);

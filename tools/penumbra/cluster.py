@@ -50,7 +50,7 @@ def scene_path(ref):
 
 # What a point's identity leaves out: where the scene is and its text (its hash stands for them),
 # the commit (passed apart) and the hash itself.
-_NOT_INPUTS = ("config_hash", "scene", "scene_text", "scene_hash", "commit", "root")
+_NOT_INPUTS = ("config_hash", "scene", "scene_hash", "commit")
 # What the truth leaves out besides: the shadow settings and the timed frames.
 _NOT_TRUTH = _NOT_INPUTS + ("sets", "frames")
 
@@ -71,10 +71,6 @@ def truth_key(spec):
     return hashlib.sha256(key.encode()).hexdigest()[:16]
 
 
-def text_hash(text):
-    return hashlib.sha256(text.encode()).hexdigest()[:12]
-
-
 def base_spec(scene, size, frames, path, path_frames):
     """What every penumbra-tune point of a run shares; point_spec adds a point's settings."""
     return {"scene": scene_ref(scene), "scene_hash": scenefile.content_hash(scene), "size": size,
@@ -82,20 +78,15 @@ def base_spec(scene, size, frames, path, path_frames):
             "commit": build.git_commit()}
 
 
-def bench_spec(scene, size, frames, flicker, written=False):
-    """What a penumbra-bench point shares with the others of its scene. A scene file the bench
-    wrote (`written`: a moved copy) travels as its text, the checkout's folder in it
-    (mask textures) made the worker's own; any other is found as penumbra-tune's are (in the
-    worker's checkout, or at the same absolute path)."""
+def bench_spec(scene, size, frames, flicker, move=None):
+    """What a penumbra-bench point shares with the others of its scene. The scene file is found
+    as penumbra-tune's are (in the worker's checkout, or at the same absolute path); `move`
+    (x, y, z) moves the whole scene when the tools load it (--move)."""
     spec = {"kind": "bench", "size": size, "frames": frames, "flicker": list(flicker),
-            "commit": build.git_commit()}
-    if written:
-        with open(scene) as f:
-            text = f.read()
-        spec.update(scene=os.path.basename(scene), scene_text=text, scene_hash=text_hash(text),
-                    root=build.ROOT)
-    else:
-        spec.update(scene=scene_ref(scene), scene_hash=scenefile.content_hash(scene))
+            "commit": build.git_commit(), "scene": scene_ref(scene),
+            "scene_hash": scenefile.content_hash(scene)}
+    if move is not None:
+        spec["move"] = [float(x) for x in move]
     return spec
 
 
@@ -116,14 +107,8 @@ def _truth_dir(spec):
 
 def _scene(spec, work):
     """The scene file on this machine, and its hash as the client computes it."""
-    if spec.get("scene_text") is None:
-        scene = scene_path(spec["scene"])
-        return scene, scenefile.content_hash(scene)
-    text = spec["scene_text"]
-    scene = os.path.join(work, os.path.basename(spec["scene"]))
-    with open(scene, "w") as f:
-        f.write(text.replace(spec["root"], build.ROOT))
-    return scene, text_hash(text)
+    scene = scene_path(spec["scene"])
+    return scene, scenefile.content_hash(scene)
 
 
 def _measure(spec, scene, work, env, truth_only=False):
@@ -131,7 +116,8 @@ def _measure(spec, scene, work, env, truth_only=False):
     if spec.get("kind") == "bench":
         passes, device, metrics = measure_bench(tools, scene, [] if truth_only else spec["sets"],
                                                 work, spec["size"], spec["frames"],
-                                                spec["flicker"], env=env, timed=not truth_only)
+                                                spec["flicker"], env=env, timed=not truth_only,
+                                                move=spec.get("move"))
         return {"passes": passes, "device": device, "metrics": metrics}
     return measure(tools, scene, {} if truth_only else spec["sets"], work,
                    size=spec["size"] or None, frames=0 if truth_only else spec["frames"],

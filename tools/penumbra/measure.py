@@ -92,12 +92,14 @@ def score(m, passes, device, path):
 
 
 def measure_bench(tools, scene, sets, work, size="", frames=10, flicker=(), env=None,
-                  timed=True):
+                  timed=True, move=None):
     """penumbra-bench's point: the GPU time per pass from penumbra-view --headless (the median of
     `frames` frames after one more; timed=False: none, passes {}), then penumbra-reference's
-    metrics.json (with `flicker`, its --flicker arguments). `sets` is a list of (key, value).
-    Returns (passes, device, metrics)."""
+    metrics.json (with `flicker`, its --flicker arguments). `sets` is a list of (key, value);
+    `move` (x, y, z) moves the whole scene (--move). Returns (passes, device, metrics)."""
     setargs = [x for k, v in sets for x in ("--set", f"{k}={v}")]
+    if move is not None:
+        setargs = ["--move", ",".join(repr(float(x)) for x in move)] + setargs
     size_arg = ["--size", size] if size else []
     passes, device = {}, ""
     if timed:

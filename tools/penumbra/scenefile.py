@@ -168,33 +168,3 @@ def key_of(line):
     return stripped.split("=", 1)[0].strip() if "=" in stripped else ""
 
 
-def write_blocks(blocks, out_path):
-    os.makedirs(os.path.dirname(out_path), exist_ok=True)
-    write_atomic(out_path, "".join(line for _, lines in blocks for line in lines))
-    return out_path
-
-
-def moved_scene(path, offset, out_path):
-    """A copy of the scene file at `path` with every object, light and the camera moved by
-    `offset`: each `position` and `target` moved, and a `position` added to the tables that
-    have none (they sit at the origin). Relative mesh paths would no longer resolve from
-    OUT/scenes, so they are refused."""
-    blocks = scene_blocks(path)
-    n = 0
-    for header, lines in blocks:
-        for i, line in enumerate(lines):
-            n += 1
-            key = key_of(line)
-            if key in ("position", "target"):
-                body, _, comment = line.split("=", 1)[1].partition("#")
-                v = [float(x) for x in body.strip().strip("[]").split(",")]
-                if len(v) != 3:
-                    raise SceneError(f"{path}:{n}: {key} is not a 3-vector")
-                v = [x + o for x, o in zip(v, offset)]
-                lines[i] = (f"{key} = [{v[0]!r}, {v[1]!r}, {v[2]!r}]" +
-                            (f"  #{comment}" if comment else "\n"))
-            elif key == "mesh" and "file:" in line:
-                raise SceneError(f"{path}:{n}: a moved scene cannot use mesh files")
-        if header in ("[[object]]", "[[spot]]", "[[point]]") and "position" not in map(key_of, lines):
-            lines.insert(1, f"position = [{offset[0]!r}, {offset[1]!r}, {offset[2]!r}]\n")
-    return write_blocks(blocks, out_path)
