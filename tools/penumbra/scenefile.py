@@ -138,33 +138,3 @@ def write_atomic(path, text):
         if os.path.exists(tmp):
             os.unlink(tmp)
         raise
-
-
-# ---- copies of a scene file, edited line by line (comments and layout kept)
-
-def scene_blocks(path):
-    """The scene file as [table header, lines] blocks, in order (the first header is ""). A
-    relative mask_texture is made absolute: the copies written from the blocks live elsewhere."""
-    blocks, current = [], ["", []]
-    base = os.path.dirname(os.path.abspath(path))
-    with open(path) as f:
-        for line in f:
-            stripped = line.split("#", 1)[0].strip()
-            if stripped.startswith("["):
-                blocks.append(current)
-                current = [stripped, []]
-            if key_of(line) == "mask_texture":
-                value = line.split("=", 1)[1].split("#", 1)[0].strip()
-                if len(value) >= 2 and value[0] == value[-1] and value[0] in "\"'":
-                    texture = os.path.join(base, value[1:-1])
-                    line = "mask_texture = %s\n" % json.dumps(os.path.normpath(texture))
-            current[1].append(line if line.endswith("\n") else line + "\n")
-    blocks.append(current)
-    return blocks
-
-
-def key_of(line):
-    stripped = line.split("#", 1)[0]
-    return stripped.split("=", 1)[0].strip() if "=" in stripped else ""
-
-
