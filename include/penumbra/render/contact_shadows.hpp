@@ -227,6 +227,7 @@ class ContactShadowPass {
   // The (resolve, march) descriptor sets of an image pair, made the first time; checks the
   // images.
   std::pair<VkDescriptorSet, VkDescriptorSet> sets_for(gpu::Image& depth, gpu::Image& normals);
+  glm::uvec2 groups() const;  // the dispatches' workgroups over width x height
 
   gpu::Context& ctx_;
   std::uint32_t width_ = 0, height_ = 0;
@@ -239,8 +240,7 @@ class ContactShadowPass {
   std::vector<std::uint32_t> march_spirv_, resolve_spirv_;
   std::vector<std::uint32_t> given_march_spirv_, given_resolve_spirv_;  // from the desc
   std::uint64_t dispatch_count_ = 0;
-  std::vector<std::string> recorded_;
-  bool in_record_ = false;  // record() is running: its barriers are already in recorded_
+  std::vector<std::string> recorded_;  // record()'s barriers and dispatches
   ContactShadowGpu last_params_{};
 };
 

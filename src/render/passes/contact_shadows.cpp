@@ -385,18 +385,18 @@ std::pair<VkDescriptorSet, VkDescriptorSet> ContactShadowPass::sets_for(gpu::Ima
   return {it->second.resolve, it->second.march};
 }
 
+glm::uvec2 ContactShadowPass::groups() const {
+  return (glm::uvec2(width_, height_) + kGroupSize - 1u) / kGroupSize;
+}
+
 void ContactShadowPass::record_resolve(VkCommandBuffer cmd, gpu::Image& depth,
                                        gpu::Image& normals) {
   if (!enabled()) return;
-  if (!in_record_) recorded_.clear();
   const VkDescriptorSet set = sets_for(depth, normals).first;
   vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve.handle());
   vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, gpu_->resolve_layout.handle(), 0, 1,
                           &set, 0, nullptr);
-  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
-  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
-  vkCmdDispatch(cmd, gx, gy, 1);
-  recorded_.push_back(dispatch_text("depth_resolve", gx, gy));
+  vkCmdDispatch(cmd, groups().x, groups().y, 1);
   ++dispatch_count_;
 }
 
@@ -410,10 +410,7 @@ void ContactShadowPass::record_march(VkCommandBuffer cmd, gpu::Image& depth, gpu
                           &set, 0, nullptr);
   vkCmdPushConstants(cmd, gpu_->march_layout.handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0,
                      sizeof(ContactShadowGpu), &params);
-  const std::uint32_t gx = (width_ + kGroupSize - 1) / kGroupSize;
-  const std::uint32_t gy = (height_ + kGroupSize - 1) / kGroupSize;
-  vkCmdDispatch(cmd, gx, gy, 1);
-  recorded_.push_back(dispatch_text("contact_shadows", gx, gy));
+  vkCmdDispatch(cmd, groups().x, groups().y, 1);
   ++dispatch_count_;
   last_params_ = params;
 }
@@ -429,27 +426,26 @@ void ContactShadowPass::record(VkCommandBuffer cmd, gpu::Image& depth, gpu::Imag
   passes::FrameGraph graph(
       {{"contact-resolve",
         {{"depth", &depth, Use::sampled}, {"resolved_depth", resolved_.get(), Use::storage_write}},
-        [&](VkCommandBuffer c) { record_resolve(c, depth, normals); },
+        [&](VkCommandBuffer c) {
+          record_resolve(c, depth, normals);
+          recorded_.push_back(dispatch_text("depth_resolve", groups().x, groups().y));
+        },
         {}},
        {"contact-march",
         {{"resolved_depth", resolved_.get(), Use::sampled},
          {"depth", &depth, Use::sampled},
          {"normals", &normals, Use::sampled},
          {"mask", mask_.get(), Use::storage_write}},
-        [&](VkCommandBuffer c) { record_march(c, depth, normals, frame); },
+        [&](VkCommandBuffer c) {
+          record_march(c, depth, normals, frame);
+          recorded_.push_back(dispatch_text("contact_shadows", groups().x, groups().y));
+        },
         {}}},
       {&depth, &normals});
   const passes::BarrierLog log = [this](const std::string& image, VkImageLayout layout) {
     recorded_.push_back("barrier " + image + " -> " + passes::layout_name(layout));
   };
-  in_record_ = true;
-  try {
-    graph.record(cmd, {}, log);
-  } catch (...) {
-    in_record_ = false;
-    throw;
-  }
-  in_record_ = false;
+  graph.record(cmd, {}, log);
   graph.finish(cmd, {{"mask", mask_.get(), Use::sampled}}, log);
 }
 
