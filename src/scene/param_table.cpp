@@ -129,6 +129,23 @@ std::vector<Param> make_params() {
        {},
        {},
        camera_violation},
+      {"camera.move",
+       T::vec3,
+       closed(-1e5, 1e5),
+       field<&S::camera, &Camera::move>(),
+       A::frame,
+       "metres: a walk; the camera (position and target) goes to position + move over "
+       "`move_frames` frames and back, the frame index driving it",
+       {},
+       slider(-10.0, 10.0)},
+      {"camera.move_frames",
+       T::integer,
+       closed(0, 1000000),
+       field<&S::camera, &Camera::move_frames>(),
+       A::frame,
+       "frames from one end of the walk to the other; 0: the camera stays put",
+       {},
+       slider(0.0, 600.0)},
       // [sun]
       {"sun.direction",
        T::direction,
@@ -277,6 +294,12 @@ std::vector<Param> make_params() {
       {"shadows.snap_to_texels", T::boolean, kAny,
        field<&S::shadows, &ShadowSettings::snap_to_texels>(), A::frame,
        "cascades move by whole texels, so static edges do not shimmer; off only to compare"},
+      {"shadows.cache", T::boolean, kAny, field<&S::shadows, &ShadowSettings::cache>(),
+       A::rebuild,
+       "draw a shadow map again only where what it holds changed (its light, its bounds, a "
+       "caster in it, a reload); moving casters are drawn over a copy of the still ones each "
+       "frame. The images are the same bit for bit as with `false`, which redraws every map "
+       "every frame"},
       {"shadows.pcf_radius", T::integer, closed(0, shadow::kPcfMaxRadius),
        field<&S::shadows, &ShadowSettings::pcf_radius>(), A::frame,
        "texels: the box filter is (2 `pcf_radius` + 1) texels wide (`kPcfMaxRadius` = 5 in "

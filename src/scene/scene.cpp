@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/file.hpp>
 #include <penumbra/scene/filters.hpp>
@@ -22,10 +23,17 @@ Bounds instance_bounds(const Scene& scene, bool casters_only) {
   Bounds bounds;
   for (const Instance& instance : scene.instances) {
     if (casters_only && !instance.casts_shadows) continue;
-    if (instance.mesh >= scene.meshes.size()) continue;
-    bounds.extend(transform_bounds(scene.meshes[instance.mesh].bounds, instance.transform));
+    bounds.extend(scene.motion_bounds(instance));
   }
   return bounds;
+}
+
+glm::dmat4 rotation_xyz_d(glm::dvec3 degrees) {
+  glm::dmat4 m(1.0);
+  m = glm::rotate(m, glm::radians(degrees.z), glm::dvec3(0, 0, 1));
+  m = glm::rotate(m, glm::radians(degrees.y), glm::dvec3(0, 1, 0));
+  m = glm::rotate(m, glm::radians(degrees.x), glm::dvec3(1, 0, 0));
+  return m;
 }
 
 std::vector<fs::path> scene_dirs() {
@@ -62,6 +70,86 @@ bool alpha_test_discards(glm::vec2 uv, MaskPattern pattern, glm::vec2 scale, flo
   return procedural_mask(uv, pattern, scale) < cutoff;
 }
 
+double walk_fraction(std::uint32_t frame, std::uint32_t frames) {
+  if (frames == 0) return 0.0;
+  const std::uint64_t period = 2ull * frames;
+  const std::uint64_t p = frame % period;
+  return double(p <= frames ? p : period - p) / double(frames);
+}
+
+bool Motion::moves() const {
+  return (move_frames > 0 && move != glm::vec3(0.0f)) || spin != glm::vec3(0.0f);
+}
+
+glm::mat4 Motion::transform_at(std::uint32_t frame) const {
+  const glm::dmat4 b(base);
+  const glm::dvec3 pivot(b[3]);
+  // The spin's angle modulo a turn, so that frame 10^6 turns as exactly as frame 1.
+  glm::dvec3 angle(0.0);
+  for (int i = 0; i < 3; ++i) angle[i] = std::fmod(double(frame) * double(spin[i]), 360.0);
+  const glm::dvec3 at = pivot + glm::dvec3(move) * walk_fraction(frame, move_frames);
+  glm::dmat4 m = rotation_xyz_d(angle) * glm::translate(glm::dmat4(1.0), -pivot) * b;
+  m = glm::translate(glm::dmat4(1.0), at) * m;
+  return glm::mat4(m);
+}
+
+glm::vec3 Camera::position_at(std::uint32_t frame) const {
+  return glm::vec3(glm::dvec3(position) + glm::dvec3(move) * walk_fraction(frame, move_frames));
+}
+
+glm::vec3 Camera::target_at(std::uint32_t frame) const {
+  return glm::vec3(glm::dvec3(target) + glm::dvec3(move) * walk_fraction(frame, move_frames));
+}
+
+Camera Camera::at(std::uint32_t frame) const {
+  Camera c = *this;
+  c.position = position_at(frame);
+  c.target = target_at(frame);
+  return c;
+}
+
+void Scene::pose(std::uint32_t k) {
+  for (Instance& instance : instances)
+    if (instance.motion) instance.transform = instance.motion->transform_at(k);
+}
+
+bool Scene::has_motion() const {
+  if (camera.move_frames > 0 && camera.move != glm::vec3(0.0f)) return true;
+  return std::any_of(instances.begin(), instances.end(),
+                     [](const Instance& i) { return i.motion && i.motion->moves(); });
+}
+
+Bounds Scene::motion_bounds(const Instance& instance) const {
+  if (instance.mesh >= meshes.size()) return {};
+  const Bounds& local = meshes[instance.mesh].bounds;
+  if (!instance.motion) return transform_bounds(local, instance.transform);
+  const Motion& m = *instance.motion;
+  Bounds at_rest = transform_bounds(local, m.base);
+  if (m.spin != glm::vec3(0.0f) && !at_rest.empty()) {
+    // Turning about its origin, the object stays within the sphere about the origin through
+    // its farthest corner.
+    const glm::vec3 pivot(m.base[3]);
+    float r = 0.0f;
+    for (int i = 0; i < 8; ++i) {
+      const glm::vec3 corner((i & 1) ? at_rest.max.x : at_rest.min.x,
+                             (i & 2) ? at_rest.max.y : at_rest.min.y,
+                             (i & 4) ? at_rest.max.z : at_rest.min.z);
+      r = std::max(r, glm::length(corner - pivot));
+    }
+    r *= 1.0f + 1e-6f;  // the rounding of the turned corners
+    at_rest = Bounds{pivot - glm::vec3(r), pivot + glm::vec3(r)};
+  }
+  // The walk is a straight line: its two ends bound every place between.
+  Bounds all = at_rest;
+  if (m.move_frames > 0) {
+    Bounds end = at_rest;
+    end.min += m.move;
+    end.max += m.move;
+    all.extend(end);
+  }
+  return all;
+}
+
 void translate_scene(Scene& scene, const glm::dvec3& offset) {
   auto moved = [&](const glm::vec3& v) { return glm::vec3(glm::dvec3(v) + offset); };
   scene.camera.position = moved(scene.camera.position);
@@ -71,6 +159,10 @@ void translate_scene(Scene& scene, const glm::dvec3& offset) {
   for (auto& i : scene.instances) {
     const glm::vec3 t = moved(glm::vec3(i.transform[3]));
     i.transform[3] = glm::vec4(t, i.transform[3].w);
+    if (i.motion) {
+      const glm::vec3 b = moved(glm::vec3(i.motion->base[3]));
+      i.motion->base[3] = glm::vec4(b, i.motion->base[3].w);
+    }
   }
 }
 

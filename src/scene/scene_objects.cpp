@@ -334,9 +334,62 @@ glm::mat4 rotation_xyz(glm::vec3 degrees) {
   return m;
 }
 
+// `move` (metres), `move_frames` and `spin` (degrees per frame): the object's Motion.
+void read_motion(const Reader& r, Instance& instance) {
+  if (!r.has("move") && !r.has("move_frames") && !r.has("spin")) return;
+  Motion m;
+  m.base = instance.transform;
+  m.move = r.vec3("move", glm::vec3(0.0f), ranges::closed(-1e5, 1e5));
+  m.move_frames = r.uint("move_frames", 0, 1, 1000000);
+  m.spin = r.vec3("spin", glm::vec3(0.0f), ranges::closed(-360.0, 360.0));
+  if (r.has("move") && !r.has("move_frames"))
+    r.fail_key("move", "needs move_frames, the frames from one end of the move to the other");
+  if (r.has("move_frames") && !r.has("move"))
+    r.fail_key("move_frames", "applies to a move; give move = [x, y, z] (metres)");
+  if (instance.analytic_sphere_radius > 0.0f && m.spin != glm::vec3(0.0f))
+    r.fail_key("spin", "an analytic sphere's shadow does not turn; spin it without "
+                       "analytic_shadow, or move it instead");
+  instance.motion = m;
+}
+
+// A moving object's origin must stay within the still ones' bounds, grown by the object's own
+// size on every side: an object that walks out of the scene is a typo in its move, and the sun's
+// cascades take their depth range from everything the objects pass through.
+void check_motion_bounds(const std::vector<const toml::table*>& objects, const Context& ctx,
+                         const Scene& scene, std::size_t first_object) {
+  Bounds still;
+  for (const Instance& i : scene.instances)
+    if (!i.motion) still.extend(scene.motion_bounds(i));
+  for (std::size_t k = 0; k < objects.size(); ++k) {
+    const Instance& inst = scene.instances[first_object + k];
+    if (!inst.motion || inst.motion->move_frames == 0) continue;
+    const Bounds rest = transform_bounds(scene.meshes[inst.mesh].bounds, inst.motion->base);
+    if (still.empty() || rest.empty()) continue;
+    const glm::vec3 s = rest.size();
+    const float grow = std::max({s.x, s.y, s.z});
+    const glm::vec3 lo = still.min - grow, hi = still.max + grow;
+    const glm::vec3 from(inst.motion->base[3]);
+    const glm::vec3 to = from + inst.motion->move;
+    const auto inside = [&](glm::vec3 p) {
+      return glm::all(glm::greaterThanEqual(p, lo)) && glm::all(glm::lessThanEqual(p, hi));
+    };
+    if (inside(from) && inside(to)) continue;
+    const auto fmt = [](glm::vec3 v) {
+      return "[" + format_number(v.x) + ", " + format_number(v.y) + ", " + format_number(v.z) + "]";
+    };
+    const Reader r(ctx, *objects[k], indexed_label("object", k));
+    r.fail_key("move", "the object's move takes it to " + fmt(to) +
+                           ", outside the still objects' bounds " + fmt(still.min) + " .. " +
+                           fmt(still.max) + " grown by its own size (" + format_number(grow) +
+                           " m)");
+  }
+}
+
 void read_object(const Reader& r, Builder& builder, Scene& scene) {
   const MeshUse use = builder.mesh(
-      r, {"mesh", "material", "position", "rotation", "scale", "casts_shadows", "analytic_shadow"},
+      r,
+      {"mesh", "material", "position", "rotation", "scale", "casts_shadows", "analytic_shadow",
+       "move", "move_frames", "spin"},
       false);
   Instance instance;
   instance.mesh = use.mesh;
@@ -356,6 +409,7 @@ void read_object(const Reader& r, Builder& builder, Scene& scene) {
   instance.casts_shadows = r.boolean("casts_shadows", true);
   instance.analytic_sphere_radius =
       analytic_sphere_radius(r, use, uniform_scale, instance.casts_shadows);
+  read_motion(r, instance);
   scene.instances.push_back(instance);
   check_analytic_count(r, scene);
 }
@@ -490,6 +544,7 @@ void read_geometry(const Context& ctx, const toml::table& root, Scene& scene) {
     builder.add_material(r, read_material(r));
   }
   const auto objects = table_array(ctx, root, "object");
+  const std::size_t first_object = scene.instances.size();
   for (std::size_t i = 0; i < objects.size(); ++i) {
     read_object(Reader(ctx, *objects[i], indexed_label("object", i)), builder, scene);
   }
@@ -497,6 +552,7 @@ void read_geometry(const Context& ctx, const toml::table& root, Scene& scene) {
   for (std::size_t i = 0; i < scatters.size(); ++i) {
     read_scatter(Reader(ctx, *scatters[i], indexed_label("scatter", i)), builder, scene);
   }
+  check_motion_bounds(objects, ctx, scene, first_object);
 }
 
 }  // namespace penumbra::scene::file

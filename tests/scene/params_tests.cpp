@@ -125,8 +125,12 @@ std::string out_of_range(const Param& p) {
     }
     case ParamType::choice:
       return "\"no_such_choice\"";
-    case ParamType::vec3:
-      return std::isfinite(p.range.lo) ? "[-1, 0.5, 0.5]" : "";
+    case ParamType::vec3: {
+      if (!std::isfinite(p.range.hi)) return std::isfinite(p.range.lo) ? "[-1, 0.5, 0.5]" : "";
+      std::ostringstream s;
+      s << "[" << p.range.hi + 1.0 << ", 0, 0]";
+      return s.str();
+    }
     case ParamType::direction:
       return "[0, 0, 0]";
     case ParamType::boolean:

@@ -1049,5 +1049,67 @@ TEST(SceneErrors, TuneBudgetIsCheckedAtItsLines) {
   EXPECT_THAT(error_of(text), HasSubstr("[tune] names no budget: give budget_ms or a max_*"));
 }
 
+TEST(SceneFile, ObjectsMoveAndSpinOverFrames) {
+  const std::string ground = "[[object]]\nmesh = \"plane\"\nsize = [40, 40]\n";
+  const Scene s = parse(ground +
+                        "[[object]]\nmesh = \"box\"\nposition = [1, 0.5, 0]\n"
+                        "move = [2, 0, -1]\nmove_frames = 4\nspin = [0, 90, 0]\n");
+  const Instance& box = s.instances.at(1);
+  ASSERT_TRUE(box.motion.has_value());
+  EXPECT_TRUE(s.has_motion());
+  EXPECT_FALSE(s.instances[0].motion.has_value());
+  const auto at = [&](uint32_t k) { return glm::vec3(box.motion->transform_at(k)[3]); };
+  // There and back: exact at the ends, halfway at move_frames / 2.
+  EXPECT_EQ(at(0), glm::vec3(1, 0.5f, 0));
+  EXPECT_EQ(at(4), glm::vec3(3, 0.5f, -1));
+  EXPECT_EQ(at(8), glm::vec3(1, 0.5f, 0));
+  EXPECT_EQ(at(2), glm::vec3(2, 0.5f, -0.5f));
+  // 90 degrees a frame about y: the box's x axis turns to -z.
+  const glm::mat4 one = box.motion->transform_at(1);
+  EXPECT_NEAR(one[0].z, -1.0f, 1e-6f);
+  EXPECT_NEAR(one[0].x, 0.0f, 1e-6f);
+  // Pose sets the transform; the bounds over the motion hold every frame's.
+  Scene posed = s;
+  posed.pose(4);
+  EXPECT_EQ(glm::vec3(posed.instances[1].transform[3]), glm::vec3(3, 0.5f, -1));
+  const Bounds all = s.motion_bounds(box);
+  for (uint32_t k = 0; k < 16; ++k) {
+    const Bounds b = transform_bounds(s.meshes[box.mesh].bounds, box.motion->transform_at(k));
+    EXPECT_TRUE(glm::all(glm::greaterThanEqual(b.min, all.min)) &&
+                glm::all(glm::lessThanEqual(b.max, all.max)))
+        << "frame " << k;
+  }
+}
+
+TEST(SceneFile, TheCameraWalksThereAndBack) {
+  const Scene s = parse(kBox + "[camera]\nposition = [0, 2, 6]\ntarget = [0, 0, 0]\n"
+                               "move = [1, 0, 0]\nmove_frames = 10\n");
+  EXPECT_EQ(s.camera.position_at(0), glm::vec3(0, 2, 6));
+  EXPECT_EQ(s.camera.position_at(10), glm::vec3(1, 2, 6));
+  EXPECT_EQ(s.camera.target_at(10), glm::vec3(1, 0, 0));
+  EXPECT_EQ(s.camera.position_at(20), glm::vec3(0, 2, 6));
+  EXPECT_TRUE(s.has_motion());
+}
+
+TEST(SceneFile, BadMotionIsAnErrorAtItsLine) {
+  const std::string ground = "[[object]]\nmesh = \"plane\"\nsize = [40, 40]\n";
+  const std::string box = ground + "[[object]]\nmesh = \"box\"\n";
+  std::string text = box + "move = [1, 0, 0]\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move =") + "[[object]] #2 move: needs move_frames"));
+  text = box + "move_frames = 3\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move_frames") + "[[object]] #2 move_frames: applies to a move"));
+  text = box + "move = [1, 0, 0]\nmove_frames = 0\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move_frames") + "[[object]] #2 move_frames = 0 is out of range"));
+  text = box + "move = [nan, 0, 0]\nmove_frames = 2\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move =")));
+  EXPECT_THAT(error_of(text), HasSubstr("not finite"));
+  // Out of the still objects' bounds (the 40 m ground, grown by the box's 1 m).
+  text = box + "move = [0, 0, 500]\nmove_frames = 2\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move =") + "[[object]] #2 move: the object's move takes it to [0, 0, 500]"));
+  EXPECT_THAT(error_of(text), HasSubstr("outside the still objects' bounds"));
+  text = ground + "[[object]]\nmesh = \"sphere\"\nanalytic_shadow = true\nspin = [0, 5, 0]\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "spin") + "[[object]] #2 spin: an analytic sphere"));
+}
+
 }  // namespace
 }  // namespace penumbra::scene

@@ -67,15 +67,30 @@ struct Material {
 float mask_coverage(const Material& material, glm::vec2 uv);
 bool alpha_test_discards(const Material& material, glm::vec2 uv);
 
+// How an instance moves over the frames (a scene file's `move`, `move_frames` and `spin`; the
+// frame index drives it, Scene::pose). Frame k's transform is the placement `base`, turned by
+// k·spin degrees about its origin (x, then y, then z, world axes) and moved by t(k)·move, where
+// t goes from 0 to 1 over move_frames frames and back (a back-and-forth walk).
+struct Motion {
+  glm::mat4 base{1.0f};      // the placement at frame 0 (object -> world)
+  glm::vec3 move{0.0f};      // metres: the far end of the translation
+  std::uint32_t move_frames = 0;  // frames from one end to the other (> 0 with a move)
+  glm::vec3 spin{0.0f};      // degrees per frame
+  bool moves() const;
+  // The transform at frame k (computed in double, rounded to float once).
+  glm::mat4 transform_at(std::uint32_t frame) const;
+};
+
 struct Instance {
   std::uint32_t mesh = 0;      // index into Scene::meshes
   std::uint32_t material = 0;  // index into Scene::materials
-  glm::mat4 transform{1.0f};   // object -> world
+  glm::mat4 transform{1.0f};   // object -> world, at the frame the scene is posed at
   bool casts_shadows = true;
   // > 0 (analytic_shadow = true): a sphere of this object-space radius about the object's origin,
   // under a uniform scale, whose shadow is computed in closed form (penumbra/sphere_shadow.glsl)
   // instead of being drawn into the shadow maps. The reference traces its mesh as any other.
   float analytic_sphere_radius = 0.0f;
+  std::optional<Motion> motion;  // set: the instance moves (Scene::pose sets transform)
   // Whether the instance is drawn into the shadow maps.
   bool in_shadow_maps() const { return casts_shadows && !(analytic_sphere_radius > 0.0f); }
 };
@@ -91,7 +106,19 @@ struct Camera {
   float fov_y_degrees = 60.0f;  // full vertical field of view, in (0, 180)
   float near = 0.1f;            // 0 < near < far
   float far = 500.0f;
+  // A walk: the camera (position and target together) moves by t(k)·move at frame k, t going
+  // from 0 to 1 over move_frames frames and back (Motion's walk). move_frames = 0: still.
+  glm::vec3 move{0.0f};
+  std::uint32_t move_frames = 0;
+  // The position and target at frame k: the ones above (frame 0) moved by the walk.
+  glm::vec3 position_at(std::uint32_t frame) const;
+  glm::vec3 target_at(std::uint32_t frame) const;
+  Camera at(std::uint32_t frame) const;  // this camera with position and target at frame k
 };
+
+// t(k) of a back-and-forth walk over `frames` frames: 0 at k = 0, 1 at k = frames, 0 again at
+// 2·frames (exact at those frames); 0 for frames = 0.
+double walk_fraction(std::uint32_t frame, std::uint32_t frames);
 
 struct Sun {
   // Unit; points FROM the sun TOWARD the scene (the direction the light travels).
@@ -167,6 +194,7 @@ struct ShadowSettings {
   std::uint32_t clipmap_levels = 6;                       // in [1, 8]
   float clipmap_extent = 16.0f;                           // metres: the full width of level 0, > 0
   bool snap_to_texels = kCascadeDefaults.snap_to_texels;  // cascades move by whole texels
+  bool cache = true;  // redraw a shadow map only when what it holds changed
   int pcf_radius = 1;                                     // PCF kernel radius in texels, in [0, 5]
   // PCF and Poisson keep their world width across cascades (a disk sized in cascade 0's texels).
   bool constant_filter_width = false;
@@ -253,9 +281,19 @@ struct Scene {
   ContactSettings contact;
   RenderSettings render;
 
-  // Of all instances, transformed to world space.
+  // Poses the moving instances at frame k: sets each one's transform from its Motion. The
+  // renderer does it for every frame it renders (the camera's walk it reads itself:
+  // Camera::position_at); instances without motion are left as they are.
+  void pose(std::uint32_t k);
+  bool has_motion() const;  // an instance moves or the camera walks
+
+  // Of all instances, transformed to world space, over their whole motion: a moving instance
+  // adds every place it passes through (the sun's cascades take their depth range from this,
+  // so that a moving object does not change them frame to frame).
   Bounds world_bounds() const;
-  // Each instance's world bounds (instances with a missing mesh: empty bounds).
+  // A moving instance's bounds over its whole motion (a static one's: its bounds).
+  Bounds motion_bounds(const Instance& instance) const;
+  // Each instance's world bounds at the posed frame (a missing mesh: empty bounds).
   std::vector<Bounds> instance_world_bounds() const;
   // Of the instances with casts_shadows.
   Bounds caster_bounds() const;
