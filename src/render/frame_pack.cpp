@@ -32,6 +32,8 @@ std::vector<Draw> pack_draws(const scene::Scene& scene, const glm::dvec3& origin
     d.mesh = inst.mesh;
     // Camera-relative: translate by -origin in double before rounding to float.
     glm::dmat4 model = glm::dmat4(inst.transform);
+    d.world = model;
+    d.moves = inst.motion && inst.motion->moves();
     model[3] -= glm::dvec4(origin, 0.0);
     d.push.model = glm::mat4(model);
     d.masked = mat.alpha == scene::AlphaMode::masked;
@@ -67,7 +69,7 @@ float local_filter_slot(const scene::Scene& scene, std::optional<scene::Filter> 
 }
 
 void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t height,
-                       const FrameCaps& caps, PackedFrame& out) {
+                       const FrameCaps& caps, uint32_t frame_index, PackedFrame& out) {
   const bool reverse_z = scene.shadows.reverse_z;
   const glm::dvec3& origin = out.origin;
   out.spot_gpu.assign(kMaxSpotLights, shadow::SpotShadowGpu{});
@@ -121,7 +123,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
           objects.push_back(a);
         }
         out.point_shadows.push_back(shadow::fit_point_shadow(
-            pl.position, frame_camera(scene, width, height), scene.shadows.max_distance, objects,
+            pl.position, frame_camera(scene, width, height, frame_index), scene.shadows.max_distance, objects,
             cfg));
       } else {
         out.point_shadows.push_back(shadow::compute_point_shadow(pl, cfg));
@@ -136,7 +138,7 @@ void pack_local_lights(const scene::Scene& scene, uint32_t width, uint32_t heigh
 }
 
 void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const FrameCaps& caps,
-              PackedFrame& out) {
+              uint32_t frame_index, PackedFrame& out) {
   const auto& sh = scene.shadows;
   shadow::ShadowConfig cfg;
   cfg.cascade_count = sh.cascades;
@@ -168,13 +170,14 @@ void pack_sun(const scene::Scene& scene, uint32_t width, uint32_t height, const 
     clip.depth = cfg.depth;
     clip.snap_to_texels = sh.snap_to_texels;
     clip.pcss = cfg.pcss;
-    out.cascades = shadow::compute_clipmap(clip, to_d(scene.camera.position), light, bounds);
+    out.cascades = shadow::compute_clipmap(clip, to_d(scene.camera.position_at(frame_index)), light,
+                                            bounds);
     out.cascades.fade_fraction = sh.fade_band;
-    out.cascades.camera_forward = frame_camera(scene, width, height).forward;
+    out.cascades.camera_forward = frame_camera(scene, width, height, frame_index).forward;
   } else {
     cfg.cascade_count = std::min(sh.cascades, caps.sun_layers);
     out.cascades =
-        shadow::compute_cascades(cfg, frame_camera(scene, width, height), light, bounds);
+        shadow::compute_cascades(cfg, frame_camera(scene, width, height, frame_index), light, bounds);
   }
   out.shadow = shadow::pack_shadow(out.cascades, out.origin);
 }
@@ -208,8 +211,9 @@ std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene:
   return slot >= 0.0f ? std::uint32_t(slot) : sun_filter_index(scene, sun_moments);
 }
 
-shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height) {
-  const auto& c = scene.camera;
+shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
+                            std::uint32_t frame) {
+  const scene::Camera c = scene.camera.at(frame);
   shadow::Camera sc;
   sc.position = to_d(c.position);
   sc.forward = to_d(c.target - c.position);
@@ -231,7 +235,7 @@ int primary_light_slot(const scene::Scene& scene) {
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
                        const FrameCaps& caps, std::uint32_t frame_index) {
   PackedFrame out;
-  const auto& c = scene.camera;
+  const scene::Camera c = scene.camera.at(frame_index);
   const bool reverse_z = scene.shadows.reverse_z;
   out.origin = to_d(c.position);
   out.draws = pack_draws(scene, out.origin);
@@ -275,8 +279,8 @@ PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint
     frame.sun_direction = glm::vec4(-glm::normalize(scene.sun->direction), scene.sun->intensity);
     frame.sun_color = glm::vec4(scene.sun->color, scene.sun->shadows ? 1.0f : 0.0f);
   }
-  pack_local_lights(scene, width, height, caps, out);
-  if (caps.sun_shadows && scene.sun) pack_sun(scene, width, height, caps, out);
+  pack_local_lights(scene, width, height, caps, frame_index, out);
+  if (caps.sun_shadows && scene.sun) pack_sun(scene, width, height, caps, frame_index, out);
   return out;
 }
 

@@ -19,6 +19,7 @@ VkImageLayout layout_for(Use use) {
     case Use::color_target:
       return VK_IMAGE_LAYOUT_COLOR_ATTACHMENT_OPTIMAL;
     case Use::depth_target:
+    case Use::depth_modify:
       return VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
     case Use::depth_test:
       return VK_IMAGE_LAYOUT_DEPTH_READ_ONLY_OPTIMAL;
@@ -32,11 +33,11 @@ VkImageLayout layout_for(Use use) {
 
 bool use_reads(Use use) {
   return use == Use::sampled || use == Use::storage_modify || use == Use::depth_test ||
-         use == Use::copy_source;
+         use == Use::copy_source || use == Use::depth_modify;
 }
 
 bool use_writes(Use use) {
-  return !use_reads(use) || use == Use::storage_modify;
+  return !use_reads(use) || use == Use::storage_modify || use == Use::depth_modify;
 }
 
 const char* use_name(Use use) {
@@ -51,6 +52,8 @@ const char* use_name(Use use) {
       return "colour target";
     case Use::depth_target:
       return "depth target";
+    case Use::depth_modify:
+      return "depth target, loaded";
     case Use::depth_test:
       return "depth test";
     case Use::copy_source:
@@ -124,7 +127,7 @@ std::vector<std::set<size_t>> dependencies(const std::vector<Step>& steps,
         i.last_frame.push_back(s);
       } else if (produces(u.use)) {
         i.producers.push_back(s);
-      } else if (u.use == Use::storage_modify) {
+      } else if (u.use == Use::storage_modify || u.use == Use::depth_modify) {
         i.modifiers.push_back(s);
       } else {
         i.readers.push_back(s);

@@ -28,6 +28,7 @@ enum class Use {
   storage_modify,  // read and written in place as a storage image (GENERAL)
   color_target,    // written as a colour attachment
   depth_target,    // written as a depth attachment
+  depth_modify,    // drawn over as a depth attachment, its contents loaded (modified in place)
   depth_test,      // a read-only depth attachment (DEPTH_READ_ONLY_OPTIMAL)
   copy_source,     // read by a transfer (TRANSFER_SRC_OPTIMAL)
   copy_target,     // written whole by a transfer (TRANSFER_DST_OPTIMAL)

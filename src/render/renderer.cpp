@@ -121,7 +121,10 @@ struct Renderer::Impl {
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
     ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
-    if (!result.rebuilt.empty()) last_camera.reset();
+    if (!result.rebuilt.empty()) {
+      last_camera.reset();
+      shadow_maps->invalidate();
+    }
     return result;
   }
 
@@ -243,11 +246,12 @@ struct Renderer::Impl {
     caps.sun_layers = res.req.cascades;
     caps.spot_shadow_maps = res.req.spot_shadow_maps;
     caps.point_shadow_cubes = res.req.point_shadow_cubes;
+    scene.pose(frame_index);
     res.packed = pack_frame(scene, res.width, res.height, caps, frame_index);
     res.frame_ubo.write(std::as_bytes(std::span(&res.packed.frame, 1)));
     if (res.req.analytic_spheres > 0)
       res.sphere_ubo.write(std::as_bytes(std::span(res.packed.analytic_spheres)));
-    shadow_maps->upload(res.packed);
+    shadow_maps->prepare(res);
     if (res.req.temporal) update_temporal();
   }
 
@@ -387,6 +391,14 @@ std::vector<float> Renderer::read_visibility(uint32_t slot) {
   return out;
 }
 
+std::vector<std::vector<std::byte>> Renderer::read_shadow_maps() {
+  std::vector<std::vector<std::byte>> out;
+  auto& m = *impl_->shadow_maps;
+  for (gpu::Image* image : {&m.sun_map, &m.spot_maps, &m.point_cubes})
+    if (image->handle() != VK_NULL_HANDLE) out.push_back(image->download());
+  return out;
+}
+
 std::vector<float> Renderer::read_sun_shadow_map(uint32_t cascade) {
   if (!impl_->res.req.sun_shadows || cascade >= impl_->res.req.cascades) return {};
   const auto bytes = impl_->shadow_maps->sun_map.download();
@@ -408,6 +420,9 @@ const BuildReport& Renderer::built() const {
 }
 const std::vector<PassTiming>& Renderer::timings() const {
   return impl_->timings;
+}
+const ShadowCacheStats& Renderer::shadow_cache_stats() const {
+  return impl_->shadow_maps->stats();
 }
 const gpu::Image& Renderer::output_image() const {
   return impl_->res.ldr;

@@ -236,6 +236,16 @@ CascadeSet compute_cascades(const ShadowConfig& config, const Camera& camera,
     double z_near = camera_ls.z + z_rel_min;
     double z_far = std::max(camera_ls.z + z_rel_max, scene_z_max);
     if (!config.depth_clamp) z_near = std::min(z_near, scene_z_min);
+    if (config.snap_to_texels) {
+      // The depth range in whole steps of 64 texels, like the placement in whole texels: a
+      // walking camera leaves the cascade's matrix exactly as it was until it has moved a texel
+      // across the light or 64 along it, so the map's texels stay the same (the renderer's
+      // cache keeps them). A coarser step cost the grazing scene's sun accuracy (mean |dV|
+      // 0.0018 -> 0.0019 at a quarter of the cascade's width).
+      const double step = 64.0 * placement.texel;
+      z_near = std::floor(z_near / step) * step;
+      z_far = std::ceil(z_far / step) * step;
+    }
 
     Cascade cascade = make_cascade(basis, placement, z_near, z_far, config.depth);
     cascade.fit_near = a;

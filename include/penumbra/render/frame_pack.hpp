@@ -40,6 +40,8 @@ struct Draw {
   bool casts = true;    // a shadow caster (the prepass marks it for the contact pass)
   bool in_maps = true;  // drawn into the shadow maps (not an analytic sphere)
   std::uint32_t mask_texture = 0;  // pushed in index.w: its slot in Scene::mask_images()
+  glm::dmat4 world{1.0};  // object -> world, unrebased (the shadow maps rebase it on their own)
+  bool moves = false;     // the instance has a Motion (drawn over the maps' still copies)
 };
 
 struct PackedFrame {
@@ -59,8 +61,10 @@ struct PackedFrame {
   std::vector<glm::vec4> analytic_spheres;
 };
 
-// The camera of the shadow math (double precision, world space) for an image of width x height.
-shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height);
+// The camera of the shadow math (double precision, world space) for an image of width x height,
+// at frame `frame` of its walk (scene::Camera::at).
+shadow::Camera frame_camera(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
+                            std::uint32_t frame = 0);
 
 // Reverse-Z (or standard) perspective, Vulkan clip z in [0, 1], y flipped so +Y is up on screen.
 glm::mat4 camera_projection(const scene::Camera& camera, double aspect, bool reverse_z);
@@ -83,7 +87,8 @@ std::uint32_t sun_filter_index(const scene::Scene& scene, bool sun_moments);
 std::uint32_t local_filter_index(const scene::Scene& scene, std::optional<scene::Filter> own,
                                  scene::LightKind kind, bool moments, bool sun_moments);
 
-// Everything the GPU reads for frame `frame_index` of `scene` at width x height.
+// Everything the GPU reads for frame `frame_index` of `scene` at width x height: the camera at
+// that frame of its walk; the instances as the scene is posed (Scene::pose).
 PackedFrame pack_frame(const scene::Scene& scene, std::uint32_t width, std::uint32_t height,
                        const FrameCaps& caps, std::uint32_t frame_index);
 

@@ -63,6 +63,15 @@ struct GBuffer {
   FrameCamera camera;
 };
 
+// What the shadow-map cache drew in the last frame (shadows.cache).
+struct ShadowCacheStats {
+  std::uint32_t layers = 0;          // map layers (cascades, spot maps, cube faces) in the frame
+  std::uint32_t drawn = 0;           // layers cleared and drawn whole (every layer without the cache)
+  std::uint32_t still_drawn = 0;     // still copies drawn again
+  std::uint32_t moving_drawn = 0;    // layers restored from their still copy with moving casters over
+  std::uint64_t texels_drawn = 0;    // texels of the layers drawn, whole or over their still copy
+};
+
 struct PassTiming {
   std::string name;
   double gpu_ms = 0.0;  // from timestamp queries
@@ -107,6 +116,9 @@ class Renderer {
   // One slot of the last frame's per-light visibility (width × height floats; 1 where the
   // slot's light does not exist). Throws unless RendererOptions::visibility_output was set.
   std::vector<float> read_visibility(uint32_t slot);
+  // Every shadow map's texels as stored (the sun's cascades, the spot maps, the point cubes, in
+  // that order; those the scene has), for checks that two renderers drew the same maps.
+  std::vector<std::vector<std::byte>> read_shadow_maps();
   // Depth texels of one sun cascade's shadow map (resolution² floats); empty without a sun.
   std::vector<float> read_sun_shadow_map(uint32_t cascade);
 
@@ -114,6 +126,8 @@ class Renderer {
   uint32_t height() const;
   const BuildReport& built() const;
   const std::vector<PassTiming>& timings() const;
+  // What the last frame drew into the shadow maps (all of them without shadows.cache).
+  const ShadowCacheStats& shadow_cache_stats() const;
 
   void set_debug_view(scene::DebugView view);
   // The last frame's tonemapped image (RGBA8, the size above); after render() it is in

@@ -54,7 +54,7 @@ std::vector<Step> ContactPass::steps(FrameResources& r) {
 
 ContactShadowFrame ContactPass::frame(const FrameResources& r) const {
   ContactShadowFrame f;
-  const auto cam = frame_camera(r.scene, r.width, r.height);
+  const auto cam = frame_camera(r.scene, r.width, r.height, r.packed.frame.mode.x);
   f.camera = ContactCamera::from(
       cam, r.reverse_z ? shadow::DepthConvention::reverse_z : shadow::DepthConvention::standard);
   // The primary light (primary_light_slot): the sun's direction, or a spot or point light's

@@ -142,6 +142,13 @@ std::vector<shader::Define> mask_defines(const FrameResources& r);
 // replaced by the draw's mask texture); binds the mask set (set 1) when there is one.
 void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                  VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index);
+// Which of the shadow-map casters a draw takes (Draw::moves).
+enum class Casters { all, still, moving };
+// The shadow-map casters (Draw::in_maps) of `which`, each with its model from `models` (the
+// draw's world transform rebased on the map's anchor) instead of the camera-relative one.
+void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
+                  const std::vector<glm::mat4>& models, Casters which);
 // A specialization constant a pass sets per frame: its constant_id, its name in the shader
 // (checked against the SPIR-V's reflection when the pipeline is made) and its value.
 struct SpecValue {
@@ -194,19 +201,33 @@ void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, u
 
 // Every light's shadow maps as one list of shadow views: the sun's cascades (a 2D array), the
 // spot maps (a 2D array) and the point cubes (a cube array).
+
+// Every light's shadow maps as one list of shadow views: the sun's cascades (a 2D array), the
+// spot maps (a 2D array) and the point cubes (a cube array). Each view is drawn in a space of its
+// own (its anchor: a point fixed while its light is), so that what a map holds does not depend on
+// the camera; with shadows.cache a layer is drawn again only when its key (its matrices, its
+// casters and their transforms, a reload) changed.
 class ShadowMapPass final : public Pass {
  public:
   explicit ShadowMapPass(FrameResources& r);
   ~ShadowMapPass() override;
   std::vector<Step> steps(FrameResources& r) override;
-  void upload(const PackedFrame& packed);  // the light matrices of this frame
+  // The light matrices of this frame, and which layers the cache draws.
+  void prepare(FrameResources& r);
+  // Every layer is drawn in the next frame (a reload rebuilt a pipeline).
+  void invalidate();
+  const ShadowCacheStats& stats() const { return stats_; }
 
   gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
-  gpu::Buffer sun_ubo, spot_ubo, point_ubo;
+  gpu::Buffer sun_ubo, spot_ubo, point_ubo;    // the lookups' matrices (camera-relative)
+  uint64_t cache_bytes = 0;                    // the still copies' memory
 
  private:
   struct View;
   std::vector<View> views_;
+  bool cache_ = true;
+  uint64_t generation_ = 0;
+  ShadowCacheStats stats_;
 };
 
 class PrepassPass final : public Pass {

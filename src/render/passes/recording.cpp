@@ -296,6 +296,39 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
   }
 }
 
+void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
+                  const std::vector<glm::mat4>& models, Casters which) {
+  if (r.mask_set != VK_NULL_HANDLE)
+    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
+                            &r.mask_set, 0, nullptr);
+  for (int pass = 0; pass < 2; ++pass) {
+    VkPipeline p = pass == 0 ? opaque : masked;
+    if (p == VK_NULL_HANDLE) continue;
+    bool bound = false;
+    for (size_t i = 0; i < r.packed.draws.size(); ++i) {
+      const Draw& d = r.packed.draws[i];
+      if (d.masked != (pass == 1) || !d.in_maps) continue;
+      if (which != Casters::all && d.moves != (which == Casters::moving)) continue;
+      const GpuMesh& m = r.meshes[d.mesh];
+      if (m.index_count == 0) continue;
+      if (!bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
+      bound = true;
+      DrawPush push = d.push;
+      push.model = models[i];
+      push.index = index;
+      push.index.z = d.casts ? 1u : 0u;
+      push.index.w = d.mask_texture;
+      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
+      VkDeviceSize offset = 0;
+      VkBuffer vb = m.vertices.handle();
+      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
+      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
+      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+    }
+  }
+}
+
 void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,
                      VkImageView color, VkClearColorValue clear, VkImageView depth_view,
                      VkImageLayout depth_layout, bool clear_depth,

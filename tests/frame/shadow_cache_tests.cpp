@@ -1,0 +1,145 @@
+// The shadow-map cache (shadows.cache) changes no pixel: scripted sequences rendered with the
+// cache on and off give the same shadow maps and the same final image, bit for bit, at every
+// frame, while the cache draws less. The sequences move the camera, move casters into and out
+// of the cascades and a spot cone, move the lights, refit the cascades, change a parameter and
+// reload a shader.
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <penumbra/render/renderer.hpp>
+#include <penumbra/scene/params.hpp>
+#include <penumbra/scene/scene.hpp>
+#include <penumbra/testing/gpu_test.hpp>
+#include <string>
+
+namespace penumbra {
+namespace {
+
+using testing::GpuTest;
+
+scene::Scene small(std::string_view name) {
+  auto s = scene::load_scene(scene::find_scene(name));
+  s.render.width = 160;
+  s.render.height = 90;
+  s.shadows.resolution = 512;
+  for (auto& p : s.spots) p.resolution = 256;
+  for (auto& p : s.points) p.resolution = 128;
+  return s;
+}
+
+// Gives instance i a motion: a walk by `move` over `frames` frames and a spin.
+void make_move(scene::Scene& s, size_t i, glm::vec3 move, uint32_t frames, glm::vec3 spin = {}) {
+  scene::Motion m;
+  m.base = s.instances.at(i).transform;
+  m.move = move;
+  m.move_frames = frames;
+  m.spin = spin;
+  s.instances[i].motion = m;
+}
+
+// Reloads the renderer's shader file named `name` (unchanged: its pipelines are rebuilt).
+void reload(render::Renderer& r, const std::string& name) {
+  for (const auto& f : r.shader_files())
+    if (f.filename() == name) {
+      const auto result = r.reload({f});
+      EXPECT_FALSE(result.rebuilt.empty()) << name;
+      return;
+    }
+  ADD_FAILURE() << "no shader file " << name;
+}
+
+// An event applied to both renderers before frame k is rendered.
+using Event = std::function<void(render::Renderer&)>;
+
+struct Totals {
+  uint32_t layers = 0, drawn = 0, moving = 0, kept = 0;
+};
+
+class ShadowCache : public GpuTest {
+ protected:
+  // Renders frames 0 .. frames-1 (after `events` at their frame) with the cache on and off and
+  // requires the same maps and image at each; returns what the cache drew.
+  Totals expect_identical(scene::Scene s, uint32_t frames,
+                          const std::map<uint32_t, Event>& events = {}) {
+    scene::Scene off_scene = s;
+    off_scene.shadows.cache = false;
+    s.shadows.cache = true;
+    render::Renderer on(ctx(), s), off(ctx(), off_scene);
+    Totals t;
+    for (uint32_t k = 0; k < frames; ++k) {
+      SCOPED_TRACE("frame " + std::to_string(k));
+      if (const auto e = events.find(k); e != events.end()) {
+        e->second(on);
+        e->second(off);
+      }
+      on.render(k);
+      off.render(k);
+      const auto& stats = on.shadow_cache_stats();
+      EXPECT_EQ(off.shadow_cache_stats().drawn, off.shadow_cache_stats().layers);
+      t.layers += stats.layers;
+      t.drawn += stats.drawn;
+      t.moving += stats.moving_drawn;
+      t.kept += stats.layers - stats.drawn - stats.moving_drawn;
+      const auto maps_on = on.read_shadow_maps(), maps_off = off.read_shadow_maps();
+      EXPECT_EQ(maps_on.size(), maps_off.size());
+      for (size_t m = 0; m < maps_on.size() && m < maps_off.size(); ++m)
+        EXPECT_TRUE(maps_on[m] == maps_off[m]) << "shadow map " << m << " differs";
+      EXPECT_TRUE(on.read_rgba8() == off.read_rgba8()) << "the image differs";
+      if (HasFailure()) break;
+    }
+    return t;
+  }
+};
+
+TEST_F(ShadowCache, AStillSceneDrawsItsMapsOnce) {
+  scene::Scene s = small("default");
+  s.shadows.temporal = false;
+  const Totals t = expect_identical(s, 3);
+  EXPECT_EQ(t.layers, 9u);
+  EXPECT_EQ(t.drawn, 3u);  // the first frame's cascades only
+}
+
+TEST_F(ShadowCache, AWalkingCameraAndMovingCastersChangeNoPixel) {
+  scene::Scene s = small("default");
+  // The ball rolls 2 m to the right and back, the box turns, the camera walks.
+  make_move(s, 3, {2.0f, 0.0f, 0.0f}, 3);
+  make_move(s, 2, {}, 0, {0.0f, 7.0f, 0.0f});
+  s.camera.move = {0.6f, 0.0f, -0.4f};
+  s.camera.move_frames = 4;
+  const Totals t = expect_identical(
+      s, 9,
+      {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
+       {6, [](render::Renderer& r) { reload(r, "shadow_depth.vert"); }},
+       {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}});
+  EXPECT_GT(t.moving, 0u);
+  EXPECT_LT(t.drawn, t.layers);
+}
+
+TEST_F(ShadowCache, LocalLightsMovingAndCastersCrossingTheirVolumesChangeNoPixel) {
+  scene::Scene s = small("indoor");
+  ASSERT_FALSE(s.spots.empty());
+  ASSERT_FALSE(s.points.empty());
+  // Every caster of the room moves through the spot's cone and the point light's range.
+  for (size_t i = 0; i < s.instances.size(); ++i)
+    if (s.instances[i].in_shadow_maps() && i % 3 == 1)
+      make_move(s, i, {1.5f, 0.0f, 0.5f}, 2);
+  const Totals t = expect_identical(
+      s, 7,
+      {{2, [](render::Renderer& r) { r.scene().spots[0].position.x += 0.25f; }},
+       {3, [](render::Renderer& r) { r.scene().points[0].position.z -= 0.25f; }},
+       {5, [](render::Renderer& r) { scene::set_param(r.scene(), "spot[0].outer_angle", "40"); }}});
+  EXPECT_GT(t.moving + t.kept, 0u);
+}
+
+TEST_F(ShadowCache, TheBuildReportNamesTheCacheAndItsMemory) {
+  scene::Scene s = small("default");
+  make_move(s, 3, {1.0f, 0.0f, 0.0f}, 5);
+  render::Renderer r(ctx(), s);
+  EXPECT_TRUE(r.built().has_pass("shadow-map cache"));
+  EXPECT_THAT(r.built().to_string(), ::testing::HasSubstr("sun-shadow-map-still"));
+  EXPECT_THAT(r.built().to_string(), ::testing::HasSubstr("MiB"));
+}
+
+}  // namespace
+}  // namespace penumbra
