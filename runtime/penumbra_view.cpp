@@ -448,6 +448,10 @@ int run(int argc, char** argv) {
   // (PENUMBRA_GPU_LOCK, as penumbra-tune --jobs and a cluster worker's slots set it).
   std::map<std::string, std::vector<double>> samples;
   std::vector<std::string> order;
+  // What each frame drew into the shadow maps (shadows.cache), for shadow_maps.csv.
+  std::ostringstream maps_csv;
+  maps_csv << "frame,layers,drawn,scrolled,moving_drawn,texels_drawn\n";
+  std::vector<double> texels_per_frame;
   {
     const penumbra::gpu::ExclusiveGpu alone;
     for (uint32_t f = 0; f < frames; ++f) {
@@ -456,6 +460,10 @@ int run(int argc, char** argv) {
         if (!samples.count(t.name)) order.push_back(t.name);
         samples[t.name].push_back(t.gpu_ms);
       }
+      const auto& c = renderer.shadow_cache_stats();
+      maps_csv << f << ',' << c.layers << ',' << c.drawn << ',' << c.scrolled << ','
+               << c.moving_drawn << ',' << c.texels_drawn << "\n";
+      texels_per_frame.push_back(double(c.texels_drawn));
     }
   }
   std::vector<std::string> written;
@@ -491,12 +499,18 @@ int run(int argc, char** argv) {
         << renderer.height() << ',' << name << ',' << m << ',' << frames << "\n";
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
+  if (renderer.shadow_cache_stats().layers > 0)
+    std::printf("shadow maps: %.2f Mtexels drawn per frame (median; frame 0: %.2f), %s\n",
+                penumbra::runtime::median(texels_per_frame) * 1e-6, texels_per_frame.front() * 1e-6,
+                scene.shadows.cache ? "cached (shadows.cache)" : "every layer every frame");
   penumbra::write_file_atomic(out / "timings.csv", csv.str());
+  penumbra::write_file_atomic(out / "shadow_maps.csv", maps_csv.str());
   std::printf(
       "\nwrote%s:\n",
       out_existed ? " (into an existing directory: files of these names were replaced)" : "");
   for (const auto& w : written) std::printf("  %s\n", w.c_str());
   std::printf("  %s\n", (out / "timings.csv").string().c_str());
+  std::printf("  %s\n", (out / "shadow_maps.csv").string().c_str());
   std::fflush(stdout);
 
   if (o.watch) {

@@ -36,6 +36,17 @@ struct ShadowGpu {
   uvec4 modes;     // x cascade selection (0 view distance, 1 containment)
 };
 
+// The sun's depth pass (shadow_depth.vert; gpu_types.hpp says how): anchor-relative positions to
+// texels of a grid fixed in light space.
+struct CascadeDrawGpu {
+  mat4 to_texels;  // (world - anchor) -> xy grid texels, z depth
+  vec4 scale;      // x 2 / P (the viewport's side P)
+};
+
+struct ShadowDrawGpu {
+  CascadeDrawGpu cascades[PENUMBRA_MAX_CASCADES];
+};
+
 struct SpotShadowGpu {
   mat4 view_proj;
   vec4 position_near;  // xyz relative to the render origin, w near

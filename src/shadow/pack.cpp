@@ -58,6 +58,47 @@ ShadowGpu pack_shadow(const CascadeSet& set, const glm::dvec3& render_origin) {
   return gpu;
 }
 
+ShadowDraw pack_shadow_draw(const CascadeSet& set, const glm::dvec3& anchor) {
+  ShadowDraw out;
+  const glm::dvec3& bx = set.light_basis.x;
+  const glm::dvec3& by = set.light_basis.y;
+  const glm::dvec3& bz = set.light_basis.z;
+  std::uint32_t p = 1;
+  while (p < set.resolution) p *= 2;
+  const std::size_t count = std::min<std::size_t>(set.cascades.size(), kMaxCascades);
+  for (std::size_t i = 0; i < count; ++i) {
+    const Cascade& c = set.cascades[i];
+    const double texel = c.texel_world_size;
+    // The grid's first texel (in texels of the light's axes) and the cascade's on it.
+    glm::dvec2 grid(c.box_min.x / texel, c.box_min.y / texel);
+    glm::ivec2 window(0);
+    const glm::dvec2 whole = glm::round(grid);
+    if (glm::all(glm::lessThan(glm::abs(grid - whole), glm::dvec2(1e-6)))) {
+      const glm::dvec2 start = glm::floor(whole / 4096.0) * 4096.0;
+      window = glm::ivec2(whole - start);
+      grid = start;
+    }
+    glm::dmat4 m(0.0);
+    for (int k = 0; k < 3; ++k) {
+      m[k][0] = bx[k] / texel;
+      m[k][1] = by[k] / texel;
+    }
+    m[3][0] = glm::dot(bx, anchor) / texel - grid.x;
+    m[3][1] = glm::dot(by, anchor) / texel - grid.y;
+    const double depth = c.box_max.z - c.box_min.z;
+    const double s = glm::dot(bz, anchor);
+    const bool reverse = set.depth == DepthConvention::reverse_z;
+    for (int k = 0; k < 3; ++k) m[k][2] = (reverse ? -bz[k] : bz[k]) / depth;
+    m[3][2] = reverse ? (c.box_max.z - s) / depth : (s - c.box_min.z) / depth;
+    m[3][3] = 1.0;
+    out.gpu.cascades[i].to_texels = glm::mat4(m);
+    out.gpu.cascades[i].scale = glm::vec4(2.0f / float(p), 0.0f, 0.0f, 0.0f);
+    out.window[i] = window;
+  }
+  out.viewport = p;
+  return out;
+}
+
 SpotShadowGpu pack_spot_shadow(const SpotShadow& shadow, const glm::dvec3& render_origin) {
   SpotShadowGpu gpu{};
   gpu.view_proj = to_mat4(rebase(shadow.view_proj, render_origin));

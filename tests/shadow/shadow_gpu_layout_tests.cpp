@@ -22,6 +22,7 @@ struct alignas(16) Blocks {
   ShadowGpu shadow;
   SpotShadowGpu spot;
   PointShadowGpu point_shadow;
+  ShadowDrawGpu draw;
 };
 
 constexpr const char* kShader = R"(#version 460
@@ -31,16 +32,19 @@ layout(std140, set = 0, binding = 0) uniform ShadowUbo {
   ShadowGpu shadow;
   SpotShadowGpu spot;
   PointShadowGpu point_shadow;
+  ShadowDrawGpu draw;
 } ubo;
 layout(std430, set = 0, binding = 1) buffer ShadowSsbo {
   ShadowGpu shadow;
   SpotShadowGpu spot;
   PointShadowGpu point_shadow;
+  ShadowDrawGpu draw;
 } ssbo;
 void main() {
   ssbo.shadow = ubo.shadow;
   ssbo.spot = ubo.spot;
   ssbo.point_shadow = ubo.point_shadow;
+  ssbo.draw = ubo.draw;
 }
 )";
 
@@ -59,6 +63,11 @@ std::map<std::string, Expected> expected_layout() {
   e["shadow"] = {offsetof(Blocks, shadow), sizeof(ShadowGpu), 0, 0};
   e["spot"] = {offsetof(Blocks, spot), sizeof(SpotShadowGpu), 0, 0};
   e["point_shadow"] = {offsetof(Blocks, point_shadow), sizeof(PointShadowGpu), 0, 0};
+  e["draw"] = {offsetof(Blocks, draw), sizeof(ShadowDrawGpu), 0, 0};
+  e["draw.cascades"] = {offsetof(ShadowDrawGpu, cascades), sizeof(ShadowDrawGpu::cascades),
+                        sizeof(CascadeDrawGpu), 0};
+  e["draw.cascades.to_texels"] = {offsetof(CascadeDrawGpu, to_texels), kMat4, 0, kVec4};
+  e["draw.cascades.scale"] = {offsetof(CascadeDrawGpu, scale), kVec4, 0, 0};
 
   e["shadow.cascades"] = {offsetof(ShadowGpu, cascades), sizeof(ShadowGpu::cascades),
                           sizeof(CascadeGpu), 0};

@@ -65,11 +65,11 @@ struct GBuffer {
 
 // What the shadow-map cache drew in the last frame (shadows.cache).
 struct ShadowCacheStats {
-  std::uint32_t layers = 0;          // map layers (cascades, spot maps, cube faces) in the frame
-  std::uint32_t drawn = 0;           // layers cleared and drawn whole (every layer without the cache)
-  std::uint32_t still_drawn = 0;     // still copies drawn again
-  std::uint32_t moving_drawn = 0;    // layers restored from their still copy with moving casters over
-  std::uint64_t texels_drawn = 0;    // texels of the layers drawn, whole or over their still copy
+  std::uint32_t layers = 0;        // map layers (cascades, spot maps, cube faces) in the frame
+  std::uint32_t drawn = 0;         // drawn whole (every layer without the cache)
+  std::uint32_t scrolled = 0;      // cascades moved by whole texels: only the new strips drawn
+  std::uint32_t moving_drawn = 0;  // restored from the still casters, the moving drawn over
+  std::uint64_t texels_drawn = 0;  // texels drawn: whole layers, strips, layers with moving casters
 };
 
 struct PassTiming {

@@ -57,6 +57,25 @@ struct alignas(16) ShadowGpu {
   glm::uvec4 modes;
 };
 
+// What the sun's depth pass draws a cascade with (shaders/render/shadow_depth.vert): positions
+// relative to the maps' anchor (not the render origin) go to texels of a grid fixed in light
+// space, the same for every placement of the cascade on whole texels; the draw's push constant
+// gives the grid texel that lands on window texel 0:
+//   t = to_texels * vec4(p - anchor, 1)              (t.xy grid texels, t.z depth)
+//   window xy = round(t.xy * 256) / 256 - offset     (exact: 1/256-texel steps, whole offsets)
+//   ndc xy = window xy * scale.x - 1                 (scale.x = 2 / P, P a power of two)
+// Every step is exact, so a grid texel drawn at the same window position is the same bit for
+// bit whenever it is drawn: what lets the shadow-map cache draw a cascade that moved by whole
+// texels only where it newly reaches (ShadowMapPass, the sun's grid image).
+struct alignas(16) CascadeDrawGpu {
+  glm::mat4 to_texels;
+  glm::vec4 scale;  // x: 2 / P; y, z, w: 0
+};
+
+struct alignas(16) ShadowDrawGpu {
+  CascadeDrawGpu cascades[kMaxCascades];
+};
+
 struct alignas(16) SpotShadowGpu {
   glm::mat4 view_proj;      // (world - render_origin) -> clip, perspective
   glm::vec4 position_near;  // xyz relative to the render origin; w: near plane

@@ -19,6 +19,16 @@ namespace penumbra::shadow {
 glm::dmat4 rebase(const glm::dmat4& m, const glm::dvec3& origin);
 
 ShadowGpu pack_shadow(const CascadeSet& set, const glm::dvec3& render_origin);
+// The sun's depth-pass block (CascadeDrawGpu, gpu_types.hpp) for positions relative to
+// `anchor`. A cascade placed on whole texels (snap_to_texels) gets a grid that is the same for
+// every placement within 4096 texels, and its window (its first texel on the grid) in `window`;
+// one that is not gets a grid starting at its own first texel (window 0). `viewport`: P.
+struct ShadowDraw {
+  ShadowDrawGpu gpu{};
+  glm::ivec2 window[kMaxCascades]{};
+  std::uint32_t viewport = 1;
+};
+ShadowDraw pack_shadow_draw(const CascadeSet& set, const glm::dvec3& anchor);
 SpotShadowGpu pack_spot_shadow(const SpotShadow& shadow, const glm::dvec3& render_origin);
 PointShadowGpu pack_point_shadow(const PointShadow& shadow, const glm::dvec3& render_origin);
 

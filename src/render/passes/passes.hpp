@@ -145,10 +145,12 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
 // Which of the shadow-map casters a draw takes (Draw::moves).
 enum class Casters { all, still, moving };
 // The shadow-map casters (Draw::in_maps) of `which`, each with its model from `models` (the
-// draw's world transform rebased on the map's anchor) instead of the camera-relative one.
+// draw's world transform rebased on the map's anchor) instead of the camera-relative one;
+// with `take`, only the draws whose entry is non-zero.
 void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                   VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
-                  const std::vector<glm::mat4>& models, Casters which);
+                  const std::vector<glm::mat4>& models, Casters which,
+                  const std::vector<uint8_t>* take = nullptr);
 // A specialization constant a pass sets per frame: its constant_id, its name in the shader
 // (checked against the SPIR-V's reflection when the pipeline is made) and its value.
 struct SpecValue {

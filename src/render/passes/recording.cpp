@@ -298,7 +298,8 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
 
 void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
                   VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
-                  const std::vector<glm::mat4>& models, Casters which) {
+                  const std::vector<glm::mat4>& models, Casters which,
+                  const std::vector<uint8_t>* take) {
   if (r.mask_set != VK_NULL_HANDLE)
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
                             &r.mask_set, 0, nullptr);
@@ -310,6 +311,7 @@ void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLay
       const Draw& d = r.packed.draws[i];
       if (d.masked != (pass == 1) || !d.in_maps) continue;
       if (which != Casters::all && d.moves != (which == Casters::moving)) continue;
+      if (take && !(*take)[i]) continue;
       const GpuMesh& m = r.meshes[d.mesh];
       if (m.index_count == 0) continue;
       if (!bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);

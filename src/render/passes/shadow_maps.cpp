@@ -4,13 +4,21 @@
 //
 // A view is drawn relative to anchors of its own (the sun's: the camera's cell of a grid as
 // coarse as the shadows reach; a spot or point light's: its position), never the camera, so a
-// map's texels depend only on its light, its casters and its matrices. The cache
-// (shadows.cache) keys each layer on exactly those: its matrices, every caster whose bounds
-// reach the layer's volume with its transform and material, the depth convention and the
-// pipelines' generation. A layer whose key is unchanged is not drawn. With moving casters
-// (Instance::motion) each view keeps a copy of its still casters: a layer whose moving casters
-// changed is restored from it and only the moving ones are drawn over. Depth-only draws keep
-// the nearest depth whatever their order, so this is the same bit for bit as drawing all.
+// map's texels depend only on its light, its casters and its matrices.
+//
+// The sun's cascades are drawn into a grid image first (sun-shadow-grid): grid texel g of a
+// cascade lives at texel g mod N of its layer (toroidal), always drawn at the same window
+// position (CascadeDrawGpu), and each frame the cascade's window [w, w + N) is copied out of it
+// into the map the resolves sample (in window order). A cascade that moved by whole texels keeps
+// what it held and is drawn only where it newly reaches.
+//
+// The cache (shadows.cache) keys each layer on what its texels depend on: its grid or matrices,
+// every still caster with its transform and material, the depth convention and the pipelines'
+// generation; a layer whose key is unchanged is not drawn. Moving casters (Instance::motion)
+// are drawn over the map each time they or it changed, after it is restored from the still
+// casters (the grid, or a still copy of a spot or point map). Depth-only draws keep the nearest
+// depth whatever their order, so this is the same bit for bit as drawing every layer every
+// frame (shadows.cache = false, which takes the same route without keeping anything).
 
 #include <algorithm>
 #include <cmath>
@@ -35,24 +43,43 @@ struct ShadowMapPass::View {
   VkDescriptorSet set = VK_NULL_HANDLE;
   bool caster_bias = true;  // dynamic depth bias on the casters (not the point cubes)
 
-  // The maps' own matrices: the draw UBO's bytes rebased on this frame's anchors (one anchor
-  // per slot: the sun's one, a spot or point light's own), the slot and UBO bytes of a layer,
-  // and whether bounds b reach a layer's volume (conservatively: a caster outside it cannot
-  // touch a texel of the layer).
+  // The maps' own matrices: the draw UBO's bytes for this frame's anchors (one per slot: the
+  // sun's one, a spot or point light's own) and each layer's window on its grid (the sun's
+  // cascades; the others 0); a layer's slot, the UBO bytes its texels depend on, and whether
+  // bounds b reach a texel rectangle [lo, hi) of it (conservatively: a caster outside cannot
+  // touch those texels; the sun's rectangle in grid texels, the others' ignored).
+  struct Packed {
+    std::vector<std::byte> bytes;
+    std::vector<glm::dvec3> anchors;
+    std::vector<glm::ivec2> windows;
+  };
   gpu::Buffer draw_ubo;
-  std::function<std::vector<std::byte>(const PackedFrame&, std::vector<glm::dvec3>&)> pack;
+  std::function<Packed(const PackedFrame&)> pack;
   std::function<uint32_t(uint32_t)> slot;
   std::function<std::pair<size_t, size_t>(uint32_t)> span;
-  std::function<bool(const PackedFrame&, uint32_t, const scene::Bounds&)> touches;
+  std::function<bool(const PackedFrame&, uint32_t, glm::ivec2, glm::ivec2, const scene::Bounds&)>
+      touches;
+  uint32_t viewport = 0;  // the sun: the grid draws' viewport side P; 0: the map's side
 
-  // The still casters' copy (the cache with moving casters), and the per-layer keys and plans.
-  gpu::Image still;
-  std::string still_name;
-  std::vector<uint64_t> map_key, still_key;
-  enum class Plan : uint8_t { keep, draw_all, restore, restore_and_draw_moving };
-  std::vector<Plan> plan;
-  std::vector<uint8_t> draw_still;
+  // The base image holds the still casters: the sun's grid, a spot or point view's still copy
+  // (the cache with moving casters), else the map itself.
+  gpu::Image base_image;
+  std::string base_name;
+  bool grid() const { return viewport != 0; }
+  bool has_base() const { return base_image.handle() != VK_NULL_HANDLE; }
+  gpu::Image& base() { return has_base() ? base_image : *target; }
+  std::string base_label() const { return has_base() ? base_name : image; }
+  bool moving = false;  // the scene has moving casters: drawn over the map, not into the base
+
+  // This frame's plan, per layer.
+  enum class Base : uint8_t { keep, draw, strips };
+  std::vector<Base> base_plan;
+  std::vector<std::vector<glm::ivec4>> strips;  // grid rectangles (x0, y0, x1, y1) newly reached
+  std::vector<uint8_t> restore;  // the map copied from the base (and the moving drawn over)
+  std::vector<uint64_t> base_key, map_key;
+  std::vector<glm::ivec2> base_window, window;
   std::vector<std::vector<glm::mat4>> models;  // per slot, per draw
+  std::vector<scene::Bounds> bounds;           // per draw, this frame
 };
 
 namespace {
@@ -153,26 +180,35 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.layout = ubo_layout(r);
     add_caster_pipelines(r, "sun-shadow", "render/shadow_depth.vert", *v.layout, v.opaque, v.masked,
                          r.ctx.info().depth_clamp);
-    v.draw_ubo = gpu::Buffer(r.ctx, sizeof(shadow::ShadowGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
+    v.draw_ubo =
+        gpu::Buffer(r.ctx, sizeof(shadow::ShadowDrawGpu), VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     v.set = ubo_set(r, *v.layout, v.draw_ubo);
+    v.viewport = 1;
+    while (v.viewport < res) v.viewport *= 2;
     const scene::Scene& scene = r.scene;
-    v.pack = [&scene](const PackedFrame& f, std::vector<glm::dvec3>& anchors) {
+    v.pack = [&scene, n](const PackedFrame& f) {
       const double reach = scene.shadows.layout == scene::ShadowLayout::clipmap
                                ? std::ldexp(double(scene.shadows.clipmap_extent),
                                             int(scene.shadows.clipmap_levels))
                                : double(scene.shadows.max_distance);
-      anchors = {sun_anchor(f.origin, reach)};
-      return bytes_of(std::vector<shadow::ShadowGpu>{shadow::pack_shadow(f.cascades, anchors[0])});
+      View::Packed out;
+      out.anchors = {sun_anchor(f.origin, reach)};
+      const shadow::ShadowDraw draw = shadow::pack_shadow_draw(f.cascades, out.anchors[0]);
+      out.bytes = bytes_of(std::vector<shadow::ShadowDrawGpu>{draw.gpu});
+      out.windows.assign(draw.window, draw.window + n);
+      return out;
     };
     v.slot = [](uint32_t) { return 0u; };
+    // A cascade's texels depend on its grid (to_texels), not on where on it its window is.
     v.span = [](uint32_t c) {
-      return std::pair<size_t, size_t>(offsetof(shadow::ShadowGpu, cascades) +
-                                           c * sizeof(shadow::CascadeGpu),
-                                       sizeof(shadow::CascadeGpu));
+      return std::pair<size_t, size_t>(offsetof(shadow::ShadowDrawGpu, cascades) +
+                                           c * sizeof(shadow::CascadeDrawGpu),
+                                       sizeof(glm::mat4));
     };
-    // The cascade's square across the light, grown by a texel; every depth along it (depth
-    // clamp pancakes casters in front of the near plane onto it).
-    v.touches = [](const PackedFrame& f, uint32_t c, const scene::Bounds& b) {
+    // Grid texels [lo, hi) of the cascade's square across the light, grown by two texels; every
+    // depth along it (depth clamp pancakes casters in front of the near plane onto it).
+    v.touches = [&v](const PackedFrame& f, uint32_t c, glm::ivec2 lo_texel, glm::ivec2 hi_texel,
+                     const scene::Bounds& b) {
       if (b.empty()) return false;
       const shadow::Cascade& k = f.cascades.cascades[c];
       const shadow::Basis& basis = f.cascades.light_basis;
@@ -184,9 +220,12 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
         lo = glm::min(lo, q);
         hi = glm::max(hi, q);
       }
-      const double g = k.texel_world_size;
-      return hi.x >= k.box_min.x - g && lo.x <= k.box_max.x + g && hi.y >= k.box_min.y - g &&
-             lo.y <= k.box_max.y + g;
+      // Grid texel g starts at box_min + (g - window) texels.
+      const double t = k.texel_world_size;
+      const glm::dvec2 w(v.window.at(c));
+      const glm::dvec2 from = glm::dvec2(k.box_min) + (glm::dvec2(lo_texel) - w - 2.0) * t;
+      const glm::dvec2 to = glm::dvec2(k.box_min) + (glm::dvec2(hi_texel) - w + 2.0) * t;
+      return hi.x >= from.x && lo.x <= to.x && hi.y >= from.y && lo.y <= to.y;
     };
     r.report.passes.push_back("sun-shadow: " + std::to_string(n) + " cascade(s) " +
                               std::to_string(res) + "^2");
@@ -214,14 +253,16 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.draw_ubo = gpu::Buffer(r.ctx, sizeof(shadow::SpotShadowGpu) * kMaxSpotLights,
                              VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     v.set = ubo_set(r, *v.layout, v.draw_ubo);
-    v.pack = [](const PackedFrame& f, std::vector<glm::dvec3>& anchors) {
+    v.pack = [](const PackedFrame& f) {
       std::vector<shadow::SpotShadowGpu> gpu(kMaxSpotLights);
-      anchors.clear();
+      View::Packed out;
       for (size_t i = 0; i < f.spot_shadows.size(); ++i) {
-        anchors.push_back(f.spot_shadows[i].position);
-        gpu[i] = shadow::pack_spot_shadow(f.spot_shadows[i], anchors.back());
+        out.anchors.push_back(f.spot_shadows[i].position);
+        gpu[i] = shadow::pack_spot_shadow(f.spot_shadows[i], out.anchors.back());
       }
-      return bytes_of(gpu);
+      out.bytes = bytes_of(gpu);
+      out.windows.assign(f.spot_shadows.size(), glm::ivec2(0));
+      return out;
     };
     v.slot = [](uint32_t i) { return i; };
     v.span = [](uint32_t i) {
@@ -229,7 +270,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                                        sizeof(shadow::SpotShadowGpu));
     };
     // The frustum's bounding sphere: its far corners are far·sqrt(1 + 2 tan²) from the light.
-    v.touches = [](const PackedFrame& f, uint32_t i, const scene::Bounds& b) {
+    v.touches = [](const PackedFrame& f, uint32_t i, glm::ivec2, glm::ivec2,
+                   const scene::Bounds& b) {
       const shadow::SpotShadow& s = f.spot_shadows[i];
       const double t = s.tan_half_angle;
       return reaches_sphere(b, s.position, s.far * std::sqrt(1.0 + 2.0 * t * t) * 1.001);
@@ -264,14 +306,16 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.layout = ubo_layout(r);
     v.draw_ubo = gpu::Buffer(r.ctx, sizeof(shadow::PointShadowGpu) * kMaxPointLights,
                              VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
-    v.pack = [](const PackedFrame& f, std::vector<glm::dvec3>& anchors) {
+    v.pack = [](const PackedFrame& f) {
       std::vector<shadow::PointShadowGpu> gpu(kMaxPointLights);
-      anchors.clear();
+      View::Packed out;
       for (size_t i = 0; i < f.point_shadows.size(); ++i) {
-        anchors.push_back(f.point_shadows[i].position);
-        gpu[i] = shadow::pack_point_shadow(f.point_shadows[i], anchors.back());
+        out.anchors.push_back(f.point_shadows[i].position);
+        gpu[i] = shadow::pack_point_shadow(f.point_shadows[i], out.anchors.back());
       }
-      return bytes_of(gpu);
+      out.bytes = bytes_of(gpu);
+      out.windows.assign(6 * f.point_shadows.size(), glm::ivec2(0));
+      return out;
     };
     v.slot = [](uint32_t l) { return l / 6; };
     v.span = [](uint32_t l) {
@@ -279,7 +323,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                                        sizeof(shadow::PointShadowGpu));
     };
     // A face's frustum reaches depth_far along its axis: corners at depth_far·sqrt(3).
-    v.touches = [](const PackedFrame& f, uint32_t l, const scene::Bounds& b) {
+    v.touches = [](const PackedFrame& f, uint32_t l, glm::ivec2, glm::ivec2,
+                   const scene::Bounds& b) {
       const shadow::PointShadow& p = f.point_shadows[l / 6];
       return reaches_sphere(b, p.position, p.depth_far * std::sqrt(3.0) * 1.001);
     };
@@ -304,31 +349,41 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     r.report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces" +
                               (fitted ? " (fitted to the camera: the faces it sees)" : ""));
   }
-  // The cache: with moving casters, a copy of each map holding its still casters.
+  // The base images: the sun's grid (always: shadows.cache = false takes the same route), and a
+  // spot or point view's still copy when the cache keeps one for moving casters.
   cache_ = r.scene.shadows.cache;
-  const bool moving =
-      cache_ && std::any_of(r.scene.instances.begin(), r.scene.instances.end(),
-                            [](const scene::Instance& i) {
-                              return i.in_shadow_maps() && i.motion && i.motion->moves();
-                            });
+  const bool moving = std::any_of(r.scene.instances.begin(), r.scene.instances.end(),
+                                  [](const scene::Instance& i) {
+                                    return i.in_shadow_maps() && i.motion && i.motion->moves();
+                                  });
   for (View& v : views_) {
-    if (!moving) continue;
     const gpu::ImageDesc& d = v.target->desc();
-    v.still_name = v.image + "-still";
     const uint64_t before = r.image_bytes;
-    v.still = r.make_image(v.still_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
-                           kMapUsage, 1,
-                           "shadows.cache = true (" + v.image +
-                               "'s still casters, kept for the moving ones)");
+    v.moving = moving && (v.grid() || cache_);
+    if (v.grid()) {
+      v.base_name = "sun-shadow-grid";
+      v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
+                                  kMapUsage, 1,
+                                  "shadows.resolution = " + std::to_string(d.width) +
+                                      " (the cascades' grid, copied into sun-shadow-map)");
+    } else if (v.moving) {
+      v.base_name = v.image + "-still";
+      v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
+                                  kMapUsage, 1,
+                                  "shadows.cache = true (" + v.image +
+                                      "'s still casters, kept for the moving ones)");
+    }
     cache_bytes += r.image_bytes - before;
   }
   if (!views_.empty()) {
+    const std::string mib = std::to_string((cache_bytes + (1u << 20) - 1) >> 20) + " MiB";
     r.report.passes.push_back(
         std::string("shadow-map cache: ") +
-        (!cache_  ? "off (shadows.cache = false): every layer drawn every frame"
-         : moving ? "on, moving casters drawn over still copies (" +
-                        std::to_string((cache_bytes + (1u << 20) - 1) >> 20) + " MiB)"
-                  : "on (no moving casters: a layer is drawn when its key changes)"));
+        (cache_ ? "on: a layer is drawn where its key changed, cascades only where they newly "
+                  "reach"
+                : "off (shadows.cache = false): every layer drawn every frame") +
+        (moving ? "; moving casters drawn over the still ones" : "") + " (" + mib +
+        " beside the maps)");
   }
 }
 
@@ -337,6 +392,21 @@ ShadowMapPass::~ShadowMapPass() = default;
 void ShadowMapPass::invalidate() {
   ++generation_;
 }
+
+namespace {
+
+// The grid rectangles (x0, y0, x1, y1) a window [to, to + n) covers that [from, from + n) did not.
+std::vector<glm::ivec4> newly_covered(glm::ivec2 from, glm::ivec2 to, int n) {
+  std::vector<glm::ivec4> out;
+  const glm::ivec2 m = to - from;
+  if (m.x > 0) out.emplace_back(from.x + n, to.y, to.x + n, to.y + n);
+  if (m.x < 0) out.emplace_back(to.x, to.y, from.x, to.y + n);
+  if (m.y > 0) out.emplace_back(to.x, from.y + n, to.x + n, to.y + n);
+  if (m.y < 0) out.emplace_back(to.x, to.y, to.x + n, from.y);
+  return out;
+}
+
+}  // namespace
 
 void ShadowMapPass::prepare(FrameResources& r) {
   const PackedFrame& f = r.packed;
@@ -347,46 +417,52 @@ void ShadowMapPass::prepare(FrameResources& r) {
   // Each caster's bounds this frame (the draws are the scene's instances, in order).
   const std::vector<scene::Bounds> bounds = r.scene.instance_world_bounds();
   for (View& v : views_) {
-    std::vector<glm::dvec3> anchors;
-    const std::vector<std::byte> data = v.pack(f, anchors);
-    v.draw_ubo.write(std::span(data));
-    v.models.assign(anchors.size(), {});
-    for (size_t s = 0; s < anchors.size(); ++s) {
+    View::Packed packed = v.pack(f);
+    v.draw_ubo.write(std::span(packed.bytes));
+    v.window = std::move(packed.windows);
+    v.bounds = bounds;
+    v.models.assign(packed.anchors.size(), {});
+    for (size_t s = 0; s < packed.anchors.size(); ++s) {
       v.models[s].resize(f.draws.size());
       for (size_t i = 0; i < f.draws.size(); ++i) {
         glm::dmat4 m = f.draws[i].world;
-        m[3] -= glm::dvec4(anchors[s], 0.0);
+        m[3] -= glm::dvec4(packed.anchors[s], 0.0);
         v.models[s][i] = glm::mat4(m);
       }
     }
     const uint32_t layers = v.layers(f);
-    const uint64_t texels = uint64_t(v.target->desc().width) * v.target->desc().width;
-    const bool still = v.still.handle() != VK_NULL_HANDLE;
+    const int side = int(v.target->desc().width);
+    const uint64_t texels = uint64_t(side) * uint64_t(side);
+    v.base_key.resize(layers, 0);
     v.map_key.resize(layers, 0);
-    v.still_key.resize(layers, 0);
-    v.plan.assign(layers, View::Plan::draw_all);
-    v.draw_still.assign(layers, 0);
+    v.base_window.resize(layers, glm::ivec2(0));
+    v.base_plan.assign(layers, View::Base::draw);
+    v.strips.assign(layers, {});
+    v.restore.assign(layers, v.has_base() ? 1 : 0);
     stats_.layers += layers;
     for (uint32_t l = 0; l < layers; ++l) {
-      if (!cache_) {
-        ++stats_.drawn;
-        stats_.texels_drawn += texels;
-        continue;
-      }
-      // The layer's key: what its texels depend on. Casters are keyed by index, transform (as
-      // drawn) and material; only those whose bounds reach the layer's volume.
+      // The base's key: what its texels depend on besides the window: the grid or matrices, the
+      // still casters with their transforms (as drawn) and materials, the pipelines.
       Hash common;
       common.add(generation_);
       common.add(r.reverse_z);
       const auto [offset, size] = v.span(l);
-      common.bytes(data.data() + offset, size);
+      common.bytes(packed.bytes.data() + offset, size);
       common.add(!v.draws || v.draws(f, l));
-      Hash still_hash = common, moving_hash = common;
+      Hash base = common, moving = common;
+      moving.add(v.window[l]);
+      bool any_moving = false;
       const std::vector<glm::mat4>& models = v.models[v.slot(l)];
       for (size_t i = 0; i < f.draws.size(); ++i) {
         const Draw& d = f.draws[i];
-        if (!d.in_maps || !v.touches(f, l, bounds[i])) continue;
-        Hash& h = still && d.moves ? moving_hash : still_hash;
+        if (!d.in_maps) continue;
+        const bool moves = v.moving && d.moves;
+        // A moving caster counts where its bounds reach the layer this frame.
+        if (moves &&
+            !v.touches(f, l, v.window[l], v.window[l] + glm::ivec2(side), bounds[i]))
+          continue;
+        any_moving = any_moving || moves;
+        Hash& h = moves ? moving : base;
         h.add(i);
         h.add(models[i]);
         h.add(d.mesh);
@@ -394,27 +470,35 @@ void ShadowMapPass::prepare(FrameResources& r) {
         h.add(d.push.mask);
         h.add(d.mask_texture);
       }
-      Hash full = still_hash;
-      full.add(moving_hash.h);
-      if (still && still_hash.h != v.still_key[l]) {
-        v.draw_still[l] = 1;
-        v.still_key[l] = still_hash.h;
-        ++stats_.still_drawn;
+      View::Base plan = View::Base::draw;
+      const glm::ivec2 move = v.window[l] - v.base_window[l];
+      if (cache_ && base.h == v.base_key[l]) {
+        const bool near = std::abs(move.x) < side && std::abs(move.y) < side;
+        plan = move == glm::ivec2(0) ? View::Base::keep
+               : near && v.grid()    ? View::Base::strips
+                                     : View::Base::draw;
       }
-      if (full.h == v.map_key[l]) {
-        v.plan[l] = View::Plan::keep;
-        continue;
-      }
-      v.map_key[l] = full.h;
-      if (!still) {
+      v.base_plan[l] = plan;
+      if (plan == View::Base::strips) v.strips[l] = newly_covered(v.base_window[l], v.window[l], side);
+      v.base_key[l] = base.h;
+      v.base_window[l] = v.window[l];
+      if (plan == View::Base::draw) {
         ++stats_.drawn;
         stats_.texels_drawn += texels;
-      } else if (moving_hash.h != common.h) {
-        v.plan[l] = View::Plan::restore_and_draw_moving;
+      } else if (plan == View::Base::strips) {
+        ++stats_.scrolled;
+        stats_.texels_drawn +=
+            texels - uint64_t(side - std::abs(move.x)) * uint64_t(side - std::abs(move.y));
+      }
+      if (!v.has_base()) continue;
+      Hash full = moving;
+      full.add(base.h);
+      const bool changed = full.h != v.map_key[l] || plan != View::Base::keep;
+      v.map_key[l] = full.h;
+      v.restore[l] = !cache_ || changed ? 1 : 0;
+      if (v.restore[l] && any_moving) {
         ++stats_.moving_drawn;
         stats_.texels_drawn += texels;
-      } else {
-        v.plan[l] = View::Plan::restore;
       }
     }
   }
@@ -423,66 +507,137 @@ void ShadowMapPass::prepare(FrameResources& r) {
 std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
   std::vector<Step> out;
   for (View& v : views_) {
-    // Caster-side depth bias pushes caster depth away from the light: negative under reverse-Z.
-    // The point pipeline draws opaque and masked casters alike.
-    const auto draw = [&r, &v](VkCommandBuffer cmd, gpu::Image& target, uint32_t l, bool clear,
-                               Casters which) {
+    // Draws `which` casters into layer l of `target`: the whole layer (cleared first when
+    // `clear`), or, with `rects` (layer texels, each with the grid offset of its draw), only
+    // those rectangles, cleared first; the rest of the layer is kept. A caster whose bounds
+    // cannot reach a rectangle is skipped.
+    struct Area {
+      VkRect2D rect;
+      glm::ivec2 offset;           // the grid texel at layer texel 0 of the draw
+      glm::ivec2 grid_lo, grid_hi;  // the rectangle in grid texels
+    };
+    const auto draw = [&r, &v](VkCommandBuffer cmd, gpu::Image& target, uint32_t l,
+                                     Casters which, const std::vector<Area>& areas, bool clear) {
       const gpu::GraphicsPipeline* masked = v.caster_bias ? v.masked.get() : v.opaque.get();
-      begin_rendering(cmd, r, target.desc().width, target.desc().width, VK_NULL_HANDLE, {},
-                      target.layer_view(l), VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL, clear);
+      const uint32_t side = target.desc().width;
+      // Depth only, stored; loaded unless the whole layer is cleared.
+      VkRenderingAttachmentInfo depth{VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+      depth.imageView = target.layer_view(l);
+      depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+      depth.loadOp = clear ? VK_ATTACHMENT_LOAD_OP_CLEAR : VK_ATTACHMENT_LOAD_OP_LOAD;
+      depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+      depth.clearValue.depthStencil = {r.reverse_z ? 0.0f : 1.0f, 0};
+      VkRenderingInfo info{VK_STRUCTURE_TYPE_RENDERING_INFO};
+      info.renderArea = {{0, 0}, {side, side}};
+      info.layerCount = 1;
+      info.pDepthAttachment = &depth;
+      vkCmdBeginRendering(cmd, &info);
+      const float vp_side = float(v.grid() ? v.viewport : side);
+      const VkViewport vp{0, 0, vp_side, vp_side, 0, 1};
+      vkCmdSetViewport(cmd, 0, 1, &vp);
+      if (!clear) {
+        std::vector<VkClearRect> clears;
+        for (const Area& a : areas) clears.push_back({a.rect, 0, 1});
+        VkClearAttachment wipe{VK_IMAGE_ASPECT_DEPTH_BIT, 0, {}};
+        wipe.clearValue.depthStencil = {r.reverse_z ? 0.0f : 1.0f, 0};
+        if (!clears.empty() && which != Casters::moving)
+          vkCmdClearAttachments(cmd, 1, &wipe, uint32_t(clears.size()), clears.data());
+      }
       if (!v.draws || v.draws(r.packed, l)) {
         if (v.caster_bias) vkCmdSetDepthBias(cmd, 0.0f, 0.0f, (r.reverse_z ? -1.0f : 1.0f) * 1.0f);
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
                                 &v.set, 0, nullptr);
-        draw_casters(cmd, r, *v.layout, v.opaque->handle(),
-                     masked ? masked->handle() : VK_NULL_HANDLE, v.index(l),
-                     v.models[v.slot(l)], which);
+        const std::vector<glm::mat4>& models = v.models[v.slot(l)];
+        std::vector<uint8_t> take(models.size(), 1);
+        for (const Area& a : areas) {
+          vkCmdSetScissor(cmd, 0, 1, &a.rect);
+          for (size_t i = 0; i < take.size(); ++i)
+              take[i] = v.touches(r.packed, l, a.grid_lo, a.grid_hi, v.bounds[i]) ? 1 : 0;
+          glm::uvec4 index = v.index(l);
+          if (v.grid()) index.y = uint32_t(a.offset.x) | (uint32_t(a.offset.y) << 16);
+          draw_casters(cmd, r, *v.layout, v.opaque->handle(),
+                       masked ? masked->handle() : VK_NULL_HANDLE, index, models, which, &take);
+        }
       }
       vkCmdEndRendering(cmd);
     };
-    if (v.still.handle() == VK_NULL_HANDLE) {
-      Step step{v.name, {{v.image, v.target, Use::depth_target}}, {}, v.name};
-      step.record = [&v, draw](VkCommandBuffer cmd) {
-        for (uint32_t l = 0; l < v.plan.size(); ++l)
-          if (v.plan[l] == View::Plan::draw_all) draw(cmd, *v.target, l, true, Casters::all);
-      };
-      out.push_back(std::move(step));
-      continue;
-    }
-    // With moving casters: the still copy's layers drawn again, the map's restored from it, the
-    // moving casters drawn over.
-    out.push_back({v.name + "-still",
-                   {{v.still_name, &v.still, Use::depth_target}},
-                   [&v, draw](VkCommandBuffer cmd) {
-                     for (uint32_t l = 0; l < v.draw_still.size(); ++l)
-                       if (v.draw_still[l]) draw(cmd, v.still, l, true, Casters::still);
-                   },
-                   {}});
-    out.push_back({v.name + "-restore",
-                   {{v.still_name, &v.still, Use::copy_source},
-                    {v.image, v.target, Use::copy_target}},
-                   [&v](VkCommandBuffer cmd) {
+    // A grid rectangle [lo, hi) as the areas of the grid image it lies in: split where it wraps
+    // (grid texel g at layer texel g mod n), each drawn with the offset that puts it there.
+    const auto wrapped = [&v](glm::ivec2 lo, glm::ivec2 hi) {
+      const int n = int(v.target->desc().width);
+      std::vector<Area> areas;
+      for (int ky = lo.y / n; ky * n < hi.y; ++ky)
+        for (int kx = lo.x / n; kx * n < hi.x; ++kx) {
+          const glm::ivec2 k0(kx * n, ky * n);
+          const glm::ivec2 a = glm::max(lo, k0), b = glm::min(hi, k0 + n);
+          if (a.x >= b.x || a.y >= b.y) continue;
+          areas.push_back({{{a.x - k0.x, a.y - k0.y}, {uint32_t(b.x - a.x), uint32_t(b.y - a.y)}},
+                           k0, a, b});
+        }
+      return areas;
+    };
+    // The whole layer of the map itself (its own window) or of a spot or point base.
+    const auto whole = [&v](uint32_t l) {
+      const uint32_t n = v.target->desc().width;
+      const glm::ivec2 w = v.window.empty() ? glm::ivec2(0) : v.window[l];
+      return std::vector<Area>{{{{0, 0}, {n, n}}, w, w, w + glm::ivec2(int(n))}};
+    };
+    gpu::Image& base = v.base();
+    const std::string base_label = v.base_label();
+    const bool separate = v.has_base();
+    // The base: layers drawn whole, and the strips a cascade newly reaches.
+    Step base_step{separate ? v.name + (v.grid() ? "-grid" : "-still") : v.name,
+                   {{base_label, &base, Use::depth_target}},
+                   {},
+                   separate ? std::string() : v.name};
+    base_step.record = [&v, &base, draw, wrapped, whole](VkCommandBuffer cmd) {
+      const Casters which = v.moving ? Casters::still : Casters::all;
+      const int n = int(v.target->desc().width);
+      for (uint32_t l = 0; l < v.base_plan.size(); ++l) {
+        if (v.base_plan[l] == View::Base::draw)
+          draw(cmd, base, l, which,
+               v.grid() ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), !v.grid());
+        if (v.base_plan[l] != View::Base::strips) continue;
+        std::vector<Area> areas;
+        for (const glm::ivec4& s : v.strips[l])
+          for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))
+            areas.push_back(a);
+        draw(cmd, base, l, which, areas, false);
+      }
+    };
+    out.push_back(std::move(base_step));
+    if (!separate) continue;
+    // The map: its window copied out of the base (the grid's wrapped in up to four parts), then
+    // the moving casters drawn over it.
+    out.push_back({v.name + "-copy",
+                   {{base_label, &base, Use::copy_source}, {v.image, v.target, Use::copy_target}},
+                   [&v, &base, wrapped](VkCommandBuffer cmd) {
                      std::vector<VkImageCopy> regions;
-                     const gpu::ImageDesc& d = v.target->desc();
-                     for (uint32_t l = 0; l < v.plan.size(); ++l) {
-                       if (v.plan[l] == View::Plan::keep) continue;
-                       VkImageCopy c{};
-                       c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
-                       c.dstSubresource = c.srcSubresource;
-                       c.extent = {d.width, d.height, 1};
-                       regions.push_back(c);
+                     const int n = int(v.target->desc().width);
+                     for (uint32_t l = 0; l < v.restore.size(); ++l) {
+                       if (!v.restore[l]) continue;
+                       const glm::ivec2 w = v.grid() ? v.window[l] : glm::ivec2(0);
+                       for (const Area& a : wrapped(w, w + glm::ivec2(n))) {
+                         VkImageCopy c{};
+                         c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
+                         c.dstSubresource = c.srcSubresource;
+                         c.srcOffset = {a.rect.offset.x, a.rect.offset.y, 0};
+                         c.dstOffset = {a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
+                         c.extent = {a.rect.extent.width, a.rect.extent.height, 1};
+                         regions.push_back(c);
+                       }
                      }
                      if (!regions.empty())
-                       vkCmdCopyImage(cmd, v.still.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                       vkCmdCopyImage(cmd, base.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
                                       v.target->handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                       uint32_t(regions.size()), regions.data());
                    },
-                   {}});
+                   v.moving ? std::string() : v.name});
+    if (!v.moving) continue;
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
-    step.record = [&v, draw](VkCommandBuffer cmd) {
-      for (uint32_t l = 0; l < v.plan.size(); ++l)
-        if (v.plan[l] == View::Plan::restore_and_draw_moving)
-          draw(cmd, *v.target, l, false, Casters::moving);
+    step.record = [&v, draw, whole](VkCommandBuffer cmd) {
+      for (uint32_t l = 0; l < v.restore.size(); ++l)
+        if (v.restore[l]) draw(cmd, *v.target, l, Casters::moving, whole(l), false);
     };
     out.push_back(std::move(step));
   }
