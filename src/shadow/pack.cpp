@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <penumbra/shadow/pack.hpp>
 
 namespace penumbra::shadow {
@@ -58,7 +59,8 @@ ShadowGpu pack_shadow(const CascadeSet& set, const glm::dvec3& render_origin) {
   return gpu;
 }
 
-ShadowDraw pack_shadow_draw(const CascadeSet& set, const glm::dvec3& anchor) {
+ShadowDraw pack_shadow_draw(const CascadeSet& set, const glm::dvec3& anchor,
+                            const std::vector<glm::dvec2>& starts) {
   ShadowDraw out;
   const glm::dvec3& bx = set.light_basis.x;
   const glm::dvec3& by = set.light_basis.y;
@@ -72,11 +74,20 @@ ShadowDraw pack_shadow_draw(const CascadeSet& set, const glm::dvec3& anchor) {
     // The grid's first texel (in texels of the light's axes) and the cascade's on it.
     glm::dvec2 grid(c.box_min.x / texel, c.box_min.y / texel);
     glm::ivec2 window(0);
+    out.start[i] = glm::dvec2(std::numeric_limits<double>::quiet_NaN());
     const glm::dvec2 whole = glm::round(grid);
     if (glm::all(glm::lessThan(glm::abs(grid - whole), glm::dvec2(1e-6)))) {
-      const glm::dvec2 start = glm::floor(whole / 4096.0) * 4096.0;
+      // A new grid puts the window a whole number of maps (at least kGridMargin texels) in,
+      // so the window starts at texel 0 of the toroidal layer and may move either way.
+      const double margin = double(set.resolution) *
+                            std::max(1.0, std::ceil(kGridMargin / double(set.resolution)));
+      glm::dvec2 start = i < starts.size() ? starts[i] : glm::dvec2(out.start[i]);
+      const glm::dvec2 w = whole - start;
+      if (!(w.x >= 0.0 && w.y >= 0.0 && w.x < 2.0 * margin && w.y < 2.0 * margin))
+        start = whole - margin;
       window = glm::ivec2(whole - start);
       grid = start;
+      out.start[i] = start;
     }
     glm::dmat4 m(0.0);
     for (int k = 0; k < 3; ++k) {

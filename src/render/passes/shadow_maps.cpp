@@ -60,6 +60,11 @@ struct ShadowMapPass::View {
   std::function<bool(const PackedFrame&, uint32_t, glm::ivec2, glm::ivec2, const scene::Bounds&)>
       touches;
   uint32_t viewport = 0;  // the sun: the grid draws' viewport side P; 0: the map's side
+  // The sun: each cascade's grid start, kept while the rest of its grid (texel size, depth
+  // range, light, anchor) stays as it was, so a full draw after such a change starts the grid
+  // at the cascade's first texel (one rectangle, not four).
+  std::vector<glm::dvec2> starts;
+  std::vector<uint64_t> grid_key;
 
   // The base image holds the still casters: the sun's grid, a spot or point view's still copy
   // (the cache with moving casters), else the map itself.
@@ -186,14 +191,29 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.viewport = 1;
     while (v.viewport < res) v.viewport *= 2;
     const scene::Scene& scene = r.scene;
-    v.pack = [&scene, n](const PackedFrame& f) {
+    v.pack = [&scene, &v, n](const PackedFrame& f) {
       const double reach = scene.shadows.layout == scene::ShadowLayout::clipmap
                                ? std::ldexp(double(scene.shadows.clipmap_extent),
                                             int(scene.shadows.clipmap_levels))
                                : double(scene.shadows.max_distance);
       View::Packed out;
       out.anchors = {sun_anchor(f.origin, reach)};
-      const shadow::ShadowDraw draw = shadow::pack_shadow_draw(f.cascades, out.anchors[0]);
+      const shadow::CascadeSet& set = f.cascades;
+      v.starts.resize(n, glm::dvec2(std::numeric_limits<double>::quiet_NaN()));
+      v.grid_key.resize(n, 0);
+      for (size_t c = 0; c < set.cascades.size() && c < n; ++c) {
+        Hash h;
+        h.add(set.cascades[c].texel_world_size);
+        h.add(set.cascades[c].box_min.z);
+        h.add(set.cascades[c].box_max.z);
+        h.add(set.light_basis);
+        h.add(set.depth);
+        h.add(out.anchors[0]);
+        if (h.h != v.grid_key[c]) v.starts[c] = glm::dvec2(std::numeric_limits<double>::quiet_NaN());
+        v.grid_key[c] = h.h;
+      }
+      const shadow::ShadowDraw draw = shadow::pack_shadow_draw(set, out.anchors[0], v.starts);
+      for (size_t c = 0; c < n; ++c) v.starts[c] = draw.start[c];
       out.bytes = bytes_of(std::vector<shadow::ShadowDrawGpu>{draw.gpu});
       out.windows.assign(draw.window, draw.window + n);
       return out;
@@ -596,7 +616,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
       for (uint32_t l = 0; l < v.base_plan.size(); ++l) {
         if (v.base_plan[l] == View::Base::draw)
           draw(cmd, base, l, which,
-               v.grid() ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), !v.grid());
+               v.grid() ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), true);
         if (v.base_plan[l] != View::Base::strips) continue;
         std::vector<Area> areas;
         for (const glm::ivec4& s : v.strips[l])
