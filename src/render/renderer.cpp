@@ -109,6 +109,7 @@ struct Renderer::Impl {
     res.reverse_z = s.shadows.reverse_z;
     res.visibility_output = o.visibility_output;
     res.specialize = o.specialize;
+    res.sun_window = o.sun_window;
   }
 
   // The temporal history (shadows.temporal): the last frame's camera, and what resets it.

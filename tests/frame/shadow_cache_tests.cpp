@@ -183,6 +183,28 @@ TEST_F(ShadowCache, LocalLightsMovingAndCastersCrossingTheirVolumesChangeNoPixel
   EXPECT_LT(t.drawn, t.layers);
 }
 
+// The sun's map copied out of its grid or drawn from it (a GPU's route): the same texels.
+TEST_F(ShadowCache, TheSunsMapIsTheSameCopiedOrDrawnFromItsGrid) {
+  scene::Scene s = filled("default");
+  s.camera.move = {0.6f, 0.0f, -0.4f};
+  s.camera.move_frames = 4;
+  render::RendererOptions copy, draw;
+  copy.sun_window = render::RendererOptions::SunWindow::copy;
+  draw.sun_window = render::RendererOptions::SunWindow::draw;
+  render::Renderer a(ctx(), s, copy), b(ctx(), s, draw);
+  EXPECT_TRUE(a.built().has_pipeline("sun-shadow-window") == false);
+  EXPECT_TRUE(b.built().has_pipeline("sun-shadow-window"));
+  for (uint32_t k = 0; k < 5; ++k) {
+    a.render(k);
+    b.render(k);
+    const auto ma = a.read_shadow_maps(), mb = b.read_shadow_maps();
+    ASSERT_EQ(ma.size(), 1u);
+    ASSERT_EQ(mb.size(), 1u);
+    EXPECT_TRUE(ma[0] == mb[0]) << "frame " << k << ": " << where(ma[0], mb[0]);
+    EXPECT_TRUE(a.read_rgba8() == b.read_rgba8()) << "frame " << k;
+  }
+}
+
 TEST_F(ShadowCache, TheBuildReportNamesTheCacheAndItsMemory) {
   scene::Scene s = small("indoor");
   make_move(s, 1, {1.0f, 0.0f, 0.0f}, 5);

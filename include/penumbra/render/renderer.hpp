@@ -33,6 +33,11 @@ struct RendererOptions {
   // the driver compiles only that code (docs/architecture.md). Off: one pipeline each, every
   // filter compiled, the values read from the frame; the images are the same bit for bit.
   bool specialize = true;
+  // How the sun's map is made from its grid each frame (ShadowMapPass): a copy, or a draw that
+  // writes each texel's depth. The same texels either way; `automatic` copies on a CPU device
+  // and draws on a GPU, which copies depth images several times slower than it draws them.
+  enum class SunWindow { automatic, copy, draw };
+  SunWindow sun_window = SunWindow::automatic;
 };
 
 // Slots of read_visibility(): the sun, then the spot lights, then the point lights.

@@ -50,6 +50,7 @@ struct FrameResources {
   bool reverse_z = true;
   bool visibility_output = false;
   bool specialize = true;  // RendererOptions::specialize
+  RendererOptions::SunWindow sun_window = RendererOptions::SunWindow::automatic;
   scene::Scene::Requirements req{};
 
   std::vector<GpuMesh> meshes;

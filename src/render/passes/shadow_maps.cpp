@@ -65,6 +65,12 @@ struct ShadowMapPass::View {
   // at the cascade's first texel (one rectangle, not four).
   std::vector<glm::dvec2> starts;
   std::vector<uint64_t> grid_key;
+  // The sun: the map drawn from the grid, a triangle per layer writing each texel's depth (on a
+  // GPU; a CPU device copies: there a copy is a memcpy and a draw runs a shader per texel).
+  bool window_by_draw = false;
+  std::unique_ptr<gpu::PipelineLayout> window_layout;
+  std::unique_ptr<gpu::GraphicsPipeline> window_pipeline;
+  VkDescriptorSet window_set = VK_NULL_HANDLE;
 
   // The base image holds the still casters: the sun's grid, a spot or point view's still copy
   // (the cache with moving casters), else the map itself.
@@ -385,8 +391,35 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
       v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
                                   kMapUsage, 1,
                                   "shadows.resolution = " + std::to_string(d.width) +
-                                      " (the cascades' grid, copied into sun-shadow-map)");
-    } else if (v.moving) {
+                                      " (the cascades' grid, drawn into sun-shadow-map)");
+    }
+    using SunWindow = RendererOptions::SunWindow;
+    v.window_by_draw = v.grid() && (r.sun_window == SunWindow::draw ||
+                                    (r.sun_window == SunWindow::automatic && !r.ctx.info().is_cpu));
+    if (v.window_by_draw) {
+      v.window_layout = std::make_unique<gpu::PipelineLayout>(
+          r.ctx,
+          std::vector<std::vector<gpu::BindingDesc>>{
+              {{0, VK_DESCRIPTOR_TYPE_COMBINED_IMAGE_SAMPLER, 1, VK_SHADER_STAGE_FRAGMENT_BIT}}},
+          uint32_t(sizeof(glm::ivec4)), VK_SHADER_STAGE_FRAGMENT_BIT);
+      const gpu::PipelineLayout& layout = *v.window_layout;
+      r.add_pipeline("sun-shadow-window (the map from the grid)",
+                     {{"render/shadow_window.vert", {}}, {"render/shadow_window.frag", {}}},
+                     v.window_pipeline, [&r, &layout](const shader::Spirvs& spirv) {
+                       gpu::GraphicsPipelineDesc p;
+                       p.vertex_spirv = spirv[0];
+                       p.fragment_spirv = spirv[1];
+                       p.depth_format = kDepthFormat;
+                       p.depth_compare = VK_COMPARE_OP_ALWAYS;
+                       p.cull = VK_CULL_MODE_NONE;
+                       return std::make_unique<gpu::GraphicsPipeline>(r.ctx, p, layout);
+                     });
+      v.window_set = r.pool.allocate(v.window_layout->set_layout(0));
+      gpu::DescriptorWriter()
+          .combined_image(0, v.base_image.view(), r.raw_depth.handle())
+          .update(r.ctx, v.window_set);
+    }
+    if (!v.grid() && v.moving) {
       v.base_name = v.image + "-still";
       v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
                                   kMapUsage, 1,
@@ -627,32 +660,70 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     };
     out.push_back(std::move(base_step));
     if (!separate) continue;
-    // The map: its window copied out of the base (the grid's wrapped in up to four parts), then
-    // the moving casters drawn over it.
-    out.push_back({v.name + "-copy",
-                   {{base_label, &base, Use::copy_source}, {v.image, v.target, Use::copy_target}},
-                   [&v, &base, wrapped](VkCommandBuffer cmd) {
-                     std::vector<VkImageCopy> regions;
-                     const int n = int(v.target->desc().width);
-                     for (uint32_t l = 0; l < v.restore.size(); ++l) {
-                       if (!v.restore[l]) continue;
-                       const glm::ivec2 w = v.grid() ? v.window[l] : glm::ivec2(0);
-                       for (const Area& a : wrapped(w, w + glm::ivec2(n))) {
-                         VkImageCopy c{};
-                         c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
-                         c.dstSubresource = c.srcSubresource;
-                         c.srcOffset = {a.rect.offset.x, a.rect.offset.y, 0};
-                         c.dstOffset = {a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
-                         c.extent = {a.rect.extent.width, a.rect.extent.height, 1};
-                         regions.push_back(c);
+    // The map: the sun's window drawn out of its grid (a triangle per layer writing each
+    // texel's stored depth: a depth-image copy costs several times more on some GPUs), a spot
+    // or point map copied from its still copy; then the moving casters drawn over it.
+    if (v.window_by_draw) {
+      out.push_back({v.name + "-window",
+                     {{base_label, &base, Use::sampled}, {v.image, v.target, Use::depth_target}},
+                     [&v](VkCommandBuffer cmd) {
+                       const int n = int(v.target->desc().width);
+                       for (uint32_t l = 0; l < v.restore.size(); ++l) {
+                         if (!v.restore[l]) continue;
+                         VkRenderingAttachmentInfo depth{
+                             VK_STRUCTURE_TYPE_RENDERING_ATTACHMENT_INFO};
+                         depth.imageView = v.target->layer_view(l);
+                         depth.imageLayout = VK_IMAGE_LAYOUT_DEPTH_ATTACHMENT_OPTIMAL;
+                         depth.loadOp = VK_ATTACHMENT_LOAD_OP_DONT_CARE;
+                         depth.storeOp = VK_ATTACHMENT_STORE_OP_STORE;
+                         VkRenderingInfo info{VK_STRUCTURE_TYPE_RENDERING_INFO};
+                         info.renderArea = {{0, 0}, {uint32_t(n), uint32_t(n)}};
+                         info.layerCount = 1;
+                         info.pDepthAttachment = &depth;
+                         vkCmdBeginRendering(cmd, &info);
+                         const VkViewport vp{0, 0, float(n), float(n), 0, 1};
+                         vkCmdSetViewport(cmd, 0, 1, &vp);
+                         vkCmdSetScissor(cmd, 0, 1, &info.renderArea);
+                         vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                                           v.window_pipeline->handle());
+                         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS,
+                                                 v.window_layout->handle(), 0, 1, &v.window_set,
+                                                 0, nullptr);
+                         const glm::ivec4 push(int(l), v.window[l].x % n, v.window[l].y % n, n);
+                         vkCmdPushConstants(cmd, v.window_layout->handle(),
+                                            VK_SHADER_STAGE_FRAGMENT_BIT, 0, sizeof(push), &push);
+                         vkCmdDraw(cmd, 3, 1, 0, 0);
+                         vkCmdEndRendering(cmd);
                        }
-                     }
-                     if (!regions.empty())
-                       vkCmdCopyImage(cmd, base.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
-                                      v.target->handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
-                                      uint32_t(regions.size()), regions.data());
-                   },
-                   v.moving ? std::string() : v.name});
+                     },
+                     v.moving ? std::string() : v.name});
+    } else {
+      // A copy: the grid's window in up to four parts (it wraps), a still copy whole.
+      out.push_back({v.name + "-copy",
+                     {{base_label, &base, Use::copy_source}, {v.image, v.target, Use::copy_target}},
+                     [&v, &base, wrapped](VkCommandBuffer cmd) {
+                       std::vector<VkImageCopy> regions;
+                       const int n = int(v.target->desc().width);
+                       for (uint32_t l = 0; l < v.restore.size(); ++l) {
+                         if (!v.restore[l]) continue;
+                         const glm::ivec2 w = v.grid() ? v.window[l] : glm::ivec2(0);
+                         for (const Area& a : wrapped(w, w + glm::ivec2(n))) {
+                           VkImageCopy c{};
+                           c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
+                           c.dstSubresource = c.srcSubresource;
+                           c.srcOffset = {a.rect.offset.x, a.rect.offset.y, 0};
+                           c.dstOffset = {a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
+                           c.extent = {a.rect.extent.width, a.rect.extent.height, 1};
+                           regions.push_back(c);
+                         }
+                       }
+                       if (!regions.empty())
+                         vkCmdCopyImage(cmd, base.handle(), VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL,
+                                        v.target->handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                        uint32_t(regions.size()), regions.data());
+                     },
+                     v.moving ? std::string() : v.name});
+    }
     if (!v.moving) continue;
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
     step.record = [&v, draw, whole](VkCommandBuffer cmd) {
