@@ -29,6 +29,23 @@ def setargs(sets):
     return [x for k, v in sorted(sets.items()) for x in ("--set", f"{k}={v}")]
 
 
+# Timed frames draw every shadow map every frame (shadows.cache = false): what a cut, a light
+# that moved or the first frame costs, the time a budget must hold; a still camera with the
+# cache would time the maps at nothing. A point that sets shadows.cache = true is timed along
+# WALK instead (2.3 cm a frame, 1.4 m/s at 60 frames/s), what the cache costs as the camera
+# walks. The images, and so every metric, are the same either way (tests/frame/
+# shadow_cache_tests.cpp); docs/performance.md has the cache's own measurements.
+WALK = [("camera.move", "1.63,0,-1.63"), ("camera.move_frames", "100")]
+
+
+def timing_sets(sets):
+    """The (key, value) list a point's timed frames run with."""
+    cache = dict(sets).get("shadows.cache")
+    if cache is None:
+        return list(sets) + [("shadows.cache", "false")]
+    return list(sets) + (WALK if cache == "true" else [])
+
+
 def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
             path_frames=8, env=None):
     """Returns a dict: the objectives (OBJECTIVES), still_error, per-light details, the
@@ -38,6 +55,8 @@ def measure(tools, scene, sets, work, size=None, frames=5, path="translate-1cm",
     os.makedirs(work, exist_ok=True)
     size_arg = ["--size", size] if size else []
     rout = os.path.join(work, "reference")
+    if frames and "shadows.cache" not in sets:
+        sets = dict(sets, **{"shadows.cache": "false"})  # timing_sets: every map every frame
     run([tools.reference, "--scene", scene, "--out", rout, "--flicker", path, "--flicker-frames",
          str(path_frames), "--flicker-truth", "--no-images"] +
         (["--timing-frames", str(frames)] if frames else []) +
@@ -98,14 +117,16 @@ def measure_bench(tools, scene, sets, work, size="", frames=10, flicker=(), env=
     metrics.json (with `flicker`, its --flicker arguments). `sets` is a list of (key, value);
     `move` (x, y, z) moves the whole scene (--move). Returns (passes, device, metrics)."""
     setargs = [x for k, v in sets for x in ("--set", f"{k}={v}")]
+    timed_args = [x for k, v in timing_sets(sets) for x in ("--set", f"{k}={v}")]
     if move is not None:
-        setargs = ["--move", ",".join(repr(float(x)) for x in move)] + setargs
+        moved = ["--move", ",".join(repr(float(x)) for x in move)]
+        setargs, timed_args = moved + setargs, moved + timed_args
     size_arg = ["--size", size] if size else []
     passes, device = {}, ""
     if timed:
         vout = os.path.join(work, "view")
         run([tools.view, "--headless", "--scene", scene, "--frames", str(frames + 1), "--view",
-             "lit", "--out", vout] + size_arg + setargs, env=env)
+             "lit", "--out", vout] + size_arg + timed_args, env=env)
         with open(os.path.join(vout, "timings.csv")) as f:
             for row in csv.DictReader(f):
                 passes[row["pass"]] = float(row["median_ms"])

@@ -60,6 +60,9 @@ def configurations(has_sun, has_contact, quick, max_map, lights=None, filters=No
         c += [("constant width", [("shadows.constant_filter_width", "true")])]
     if lights is not None and (lights.spots or lights.points):
         c += [(f"local maps x{f:g}", local_map_sets(lights, f)) for f in (0.5, 2)]
+    # The shadow-map cache, timed along a walk (measure.timing_sets; the other points are timed
+    # drawing every map every frame).
+    c += [("cache, walking", [("shadows.cache", "true")])]
     # The biases (every light): half and twice the defaults, and none.
     c += [(f"normal offset {t}", [("shadows.normal_offset_texels", t)]) for t in ("0", "0.75", "3")]
     c += [(f"slope bias {t}", [("shadows.slope_bias", t)]) for t in ("0", "1", "4")]
