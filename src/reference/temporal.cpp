@@ -398,6 +398,9 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
 
   const scene::Camera camera = s.camera;
   const std::optional<scene::Sun> sun = s.sun;
+  const bool moving = std::any_of(s.instances.begin(), s.instances.end(), [](const auto& i) {
+    return i.motion && i.motion->moves();
+  });
   std::vector<FrameSample> previous(lights.size()), current(lights.size());
   // The truth at the same receivers (FlickerOptions::truth): a BVH per relative origin.
   std::vector<FrameSample> previous_truth(options.truth ? lights.size() : 0),
@@ -432,7 +435,9 @@ std::vector<Flicker> measure_flicker(render::Renderer& renderer, const CameraPat
           count_flicker(previous[li], f, options.threshold, out[li].edge_pixels, out[li].changed,
                         &out[li].changed_per_pixel, &out[li].edge_weight, &out[li].changed_weight);
         if (!options.truth) continue;
-        if (!tracer || tracer->origin() != receivers.origin)
+        // Moving objects (Instance::motion): the renderer posed them at frame k, and the truth
+        // is traced among them where they are now.
+        if (!tracer || tracer->origin() != receivers.origin || (li == 0 && moving))
           tracer = std::make_unique<Tracer>(s, receivers.origin);
         FrameSample& t = current_truth[li];
         t.receivers = receivers;
