@@ -261,7 +261,8 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     // The frame graph, as the report prints it: the steps in the order their images give.
     std::vector<std::string> steps;
     for (const auto& g : b.graph) steps.push_back(g.substr(0, g.find(':')));
-    EXPECT_THAT(steps, ::testing::ElementsAre("sun-shadow-grid", "sun-shadow-copy", "prepass",
+    EXPECT_THAT(steps, ::testing::ElementsAre("sun-shadow-sync", "sun-shadow-grid",
+                                              "sun-shadow-copy", "sun-shadow", "prepass",
                                               "shadow-resolve",
                                               "shadow-temporal", "shadow-temporal-history",
                                               "contact-resolve", "contact-shadows", "forward",

@@ -24,9 +24,9 @@ scene::Scene small(std::string_view name) {
   auto s = scene::load_scene(scene::find_scene(name));
   s.render.width = 160;
   s.render.height = 90;
-  s.shadows.resolution = 512;
-  for (auto& p : s.spots) p.resolution = 256;
-  for (auto& p : s.points) p.resolution = 128;
+  s.shadows.resolution = 256;
+  for (auto& p : s.spots) p.resolution = 128;
+  for (auto& p : s.points) p.resolution = 64;
   return s;
 }
 
@@ -70,8 +70,8 @@ std::string where(const std::vector<std::byte>& a, const std::vector<std::byte>&
         std::memcpy(&x, &a[i], 4);
         std::memcpy(&y, &b[i], 4);
         const size_t t = i / 4;
-        rows += " [" + std::to_string(t / 262144) + ":" + std::to_string(t % 512) + "," +
-                std::to_string((t / 512) % 512) + " " + std::to_string(x) + " " + std::to_string(y) + "]";
+        rows += " [" + std::to_string(t / 65536) + ":" + std::to_string(t % 256) + "," +
+                std::to_string((t / 256) % 256) + " " + std::to_string(x) + " " + std::to_string(y) + "]";
         ++shown;
       }
   }
@@ -211,7 +211,7 @@ TEST_F(ShadowCache, TheBuildReportNamesTheCacheAndItsMemory) {
   render::Renderer r(ctx(), s);
   EXPECT_TRUE(r.built().has_pass("shadow-map cache: on"));
   const std::string report = r.built().to_string();
-  EXPECT_THAT(report, ::testing::HasSubstr("spot-shadow-maps-still 256x256 D32_SFLOAT"));
+  EXPECT_THAT(report, ::testing::HasSubstr("spot-shadow-maps-still 128x128 D32_SFLOAT"));
   EXPECT_THAT(report, ::testing::HasSubstr("point-shadow-cubes-still"));
   EXPECT_THAT(report, ::testing::HasSubstr("MiB beside the maps"));
   // Without the cache no still copies; the sun's grid is there either way.
@@ -220,7 +220,7 @@ TEST_F(ShadowCache, TheBuildReportNamesTheCacheAndItsMemory) {
   EXPECT_THAT(off.built().to_string(), ::testing::Not(::testing::HasSubstr("-still")));
   scene::Scene d = small("default");
   render::Renderer sun(ctx(), d);
-  EXPECT_THAT(sun.built().to_string(), ::testing::HasSubstr("sun-shadow-grid 512x512x3"));
+  EXPECT_THAT(sun.built().to_string(), ::testing::HasSubstr("sun-shadow-grid 256x256x3"));
 }
 
 }  // namespace

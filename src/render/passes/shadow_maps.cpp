@@ -87,6 +87,12 @@ struct ShadowMapPass::View {
   std::vector<Base> base_plan;
   std::vector<std::vector<glm::ivec4>> strips;  // grid rectangles (x0, y0, x1, y1) newly reached
   std::vector<uint8_t> restore;  // the map copied from the base (and the moving drawn over)
+  // The sun without moving casters: a cascade drawn whole while its window starts on a whole
+  // map of the grid (w mod N = 0, as after every new grid) is drawn straight into the map, whose
+  // layout is then the grid's (`direct`); the grid layer is left stale (`in_map`) until the
+  // cascade scrolls, when the map is first copied back into it (`sync`). A still camera never
+  // copies.
+  std::vector<uint8_t> direct, sync, in_map;
   std::vector<uint64_t> base_key, map_key;
   std::vector<glm::ivec2> base_window, window;
   std::vector<std::vector<glm::mat4>> models;  // per slot, per draw
@@ -492,6 +498,9 @@ void ShadowMapPass::prepare(FrameResources& r) {
     v.base_plan.assign(layers, View::Base::draw);
     v.strips.assign(layers, {});
     v.restore.assign(layers, v.has_base() ? 1 : 0);
+    v.direct.assign(layers, 0);
+    v.sync.assign(layers, 0);
+    v.in_map.resize(layers, 0);
     stats_.layers += layers;
     for (uint32_t l = 0; l < layers; ++l) {
       // The base's key: what its texels depend on besides the window: the grid or matrices, the
@@ -542,6 +551,23 @@ void ShadowMapPass::prepare(FrameResources& r) {
         ++stats_.scrolled;
         stats_.texels_drawn +=
             texels - uint64_t(side - std::abs(move.x)) * uint64_t(side - std::abs(move.y));
+      }
+      if (v.grid() && !v.moving) {
+        const bool aligned = v.window[l].x % side == 0 && v.window[l].y % side == 0;
+        if (plan == View::Base::draw && aligned) {
+          v.direct[l] = 1;
+          v.in_map[l] = 1;
+          v.base_plan[l] = View::Base::keep;
+          v.restore[l] = 0;
+          v.map_key[l] = 0;
+          continue;
+        }
+        if (plan == View::Base::strips && v.in_map[l]) v.sync[l] = 1;
+        if (plan != View::Base::keep) v.in_map[l] = 0;
+        if (v.in_map[l]) {  // kept, and the map holds it
+          v.restore[l] = 0;
+          continue;
+        }
       }
       if (!v.has_base()) continue;
       Hash full = moving;
@@ -638,9 +664,34 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     gpu::Image& base = v.base();
     const std::string base_label = v.base_label();
     const bool separate = v.has_base();
+    if (v.grid()) {
+      // A cascade drawn straight into the map and now scrolling: the map (last frame's, laid
+      // out as the grid) copied back into the grid first.
+      out.push_back({v.name + "-sync",
+                     {{v.image, v.target, Use::copy_source, true},
+                      {base_label, &base, Use::copy_target}},
+                     [&v, &base](VkCommandBuffer cmd) {
+                       std::vector<VkImageCopy> regions;
+                       const gpu::ImageDesc& d = v.target->desc();
+                       for (uint32_t l = 0; l < v.sync.size(); ++l) {
+                         if (!v.sync[l]) continue;
+                         VkImageCopy c{};
+                         c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
+                         c.dstSubresource = c.srcSubresource;
+                         c.extent = {d.width, d.height, 1};
+                         regions.push_back(c);
+                       }
+                       if (!regions.empty())
+                         vkCmdCopyImage(cmd, v.target->handle(),
+                                        VK_IMAGE_LAYOUT_TRANSFER_SRC_OPTIMAL, base.handle(),
+                                        VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
+                                        uint32_t(regions.size()), regions.data());
+                     },
+                     {}});
+    }
     // The base: layers drawn whole, and the strips a cascade newly reaches.
     Step base_step{separate ? v.name + (v.grid() ? "-grid" : "-still") : v.name,
-                   {{base_label, &base, Use::depth_target}},
+                   {{base_label, &base, v.grid() ? Use::depth_modify : Use::depth_target}},
                    {},
                    separate ? std::string() : v.name};
     base_step.record = [&v, &base, draw, wrapped, whole](VkCommandBuffer cmd) {
@@ -696,7 +747,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                          vkCmdEndRendering(cmd);
                        }
                      },
-                     v.moving ? std::string() : v.name});
+                     {}});
     } else {
       // A copy: the grid's window in up to four parts (it wraps), a still copy whole.
       out.push_back({v.name + "-copy",
@@ -722,7 +773,16 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                                         v.target->handle(), VK_IMAGE_LAYOUT_TRANSFER_DST_OPTIMAL,
                                         uint32_t(regions.size()), regions.data());
                      },
-                     v.moving ? std::string() : v.name});
+                     v.moving || v.grid() ? std::string() : v.name});
+    }
+    if (v.grid() && !v.moving) {
+      // Cascades drawn whole straight into the map (their window on a whole map of the grid).
+      Step direct{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
+      direct.record = [&v, draw, whole](VkCommandBuffer cmd) {
+        for (uint32_t l = 0; l < v.direct.size(); ++l)
+          if (v.direct[l]) draw(cmd, *v.target, l, Casters::all, whole(l), true);
+      };
+      out.push_back(std::move(direct));
     }
     if (!v.moving) continue;
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
