@@ -267,39 +267,15 @@ void PerPixelCompute::dispatch(VkCommandBuffer cmd, const FrameResources& r) {
   vkCmdDispatch(cmd, (r.width + 7) / 8, (r.height + 7) / 8, 1);
 }
 
-void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
-                 VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index) {
-  // Every draw layout has the mask set when the scene samples mask textures (the opaque
-  // pipelines share the masked ones' fragment shaders, which declare it).
-  if (r.mask_set != VK_NULL_HANDLE)
-    vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
-                            &r.mask_set, 0, nullptr);
-  for (int pass = 0; pass < 2; ++pass) {
-    VkPipeline p = pass == 0 ? opaque : masked;
-    if (p == VK_NULL_HANDLE) continue;
-    vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
-    for (const auto& d : r.packed.draws) {
-      if (d.masked != (pass == 1) || (casters_only && !d.in_maps)) continue;
-      const GpuMesh& m = r.meshes[d.mesh];
-      if (m.index_count == 0) continue;
-      DrawPush push = d.push;
-      push.index = index;
-      push.index.z = d.casts ? 1u : 0u;  // the prepass marks casters for the contact pass
-      push.index.w = d.mask_texture;
-      vkCmdPushConstants(cmd, layout.handle(), VK_SHADER_STAGE_ALL, 0, sizeof(DrawPush), &push);
-      VkDeviceSize offset = 0;
-      VkBuffer vb = m.vertices.handle();
-      vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
-      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
-      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
-    }
-  }
-}
+namespace {
 
-void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
-                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
-                  const std::vector<glm::mat4>& models, Casters which,
-                  const std::vector<uint8_t>* take) {
+// The draws `take` accepts, opaque then masked, each with its model from `model`, `index` pushed
+// (z: whether it casts, which the prepass marks for the contact pass; w: its mask texture).
+// Every draw layout has the mask set when the scene samples mask textures (the opaque pipelines
+// share the masked ones' fragment shaders, which declare it).
+template <class Take, class Model>
+void draw_list(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+               VkPipeline opaque, VkPipeline masked, glm::uvec4 index, Take take, Model model) {
   if (r.mask_set != VK_NULL_HANDLE)
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
                             &r.mask_set, 0, nullptr);
@@ -309,15 +285,13 @@ void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLay
     bool bound = false;
     for (size_t i = 0; i < r.packed.draws.size(); ++i) {
       const Draw& d = r.packed.draws[i];
-      if (d.masked != (pass == 1) || !d.in_maps) continue;
-      if (which != Casters::all && d.moves != (which == Casters::moving)) continue;
-      if (take && !(*take)[i]) continue;
+      if (d.masked != (pass == 1) || !take(i, d)) continue;
       const GpuMesh& m = r.meshes[d.mesh];
       if (m.index_count == 0) continue;
       if (!bound) vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, p);
       bound = true;
       DrawPush push = d.push;
-      push.model = models[i];
+      push.model = model(i, d);
       push.index = index;
       push.index.z = d.casts ? 1u : 0u;
       push.index.w = d.mask_texture;
@@ -329,6 +303,29 @@ void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLay
       vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
     }
   }
+}
+
+}  // namespace
+
+void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                 VkPipeline opaque, VkPipeline masked, bool casters_only, glm::uvec4 index) {
+  draw_list(
+      cmd, r, layout, opaque, masked, index,
+      [casters_only](size_t, const Draw& d) { return !casters_only || d.in_maps; },
+      [](size_t, const Draw& d) { return d.push.model; });
+}
+
+void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
+                  const std::vector<glm::mat4>& models, Casters which,
+                  const std::vector<uint8_t>* take) {
+  draw_list(
+      cmd, r, layout, opaque, masked, index,
+      [which, take](size_t i, const Draw& d) {
+        if (!d.in_maps || (take && !(*take)[i])) return false;
+        return which == Casters::all || d.moves == (which == Casters::moving);
+      },
+      [&models](size_t i, const Draw&) { return models[i]; });
 }
 
 void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,
