@@ -110,6 +110,7 @@ struct Renderer::Impl {
     res.visibility_output = o.visibility_output;
     res.specialize = o.specialize;
     res.sun_window = o.sun_window;
+    res.scroll_cascades = o.scroll_cascades;
   }
 
   // The temporal history (shadows.temporal): the last frame's camera, and what resets it.

@@ -261,12 +261,17 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     // The frame graph, as the report prints it: the steps in the order their images give.
     std::vector<std::string> steps;
     for (const auto& g : b.graph) steps.push_back(g.substr(0, g.find(':')));
-    EXPECT_THAT(steps, ::testing::ElementsAre("sun-shadow-sync", "sun-shadow-grid",
-                                              "sun-shadow-copy", "sun-shadow", "prepass",
-                                              "shadow-resolve",
-                                              "shadow-temporal", "shadow-temporal-history",
-                                              "contact-resolve", "contact-shadows", "forward",
-                                              "tonemap", "readback"));
+    // A CPU device scrolls the cascades through their grid (and copies it into the map); a GPU
+    // draws a cascade that moved whole into its map.
+    std::vector<std::string> sun{"sun-shadow"};
+    if (ctx().info().is_cpu) sun = {"sun-shadow-sync", "sun-shadow-grid", "sun-shadow-copy",
+                                    "sun-shadow"};
+    std::vector<std::string> expected = sun;
+    for (const char* step : {"prepass", "shadow-resolve", "shadow-temporal",
+                             "shadow-temporal-history", "contact-resolve", "contact-shadows",
+                             "forward", "tonemap", "readback"})
+      expected.push_back(step);
+    EXPECT_EQ(steps, expected);
     EXPECT_THAT(b.to_string(),
                 ::testing::HasSubstr("step      shadow-resolve: reads depth (sampled), normal "
                                      "(sampled), sun-shadow-map (sampled); writes shadow-info "

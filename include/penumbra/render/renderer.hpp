@@ -38,6 +38,13 @@ struct RendererOptions {
   // and draws on a GPU, which copies depth images several times slower than it draws them.
   enum class SunWindow { automatic, copy, draw };
   SunWindow sun_window = SunWindow::automatic;
+  // Whether a sun cascade that moved by whole texels keeps what it holds and is drawn only where
+  // it newly reaches (through the grid image), or is drawn whole into its map again. Scrolling
+  // needs the cascade's window written into the map each frame it moved: a memcpy on a CPU
+  // device, but on an H100 as dear as drawing the casters (docs/performance.md), so `automatic`
+  // scrolls on a CPU device only. The images are the same with the cache on and off either way.
+  enum class Scroll { automatic, on, off };
+  Scroll scroll_cascades = Scroll::automatic;
 };
 
 // Slots of read_visibility(): the sun, then the spot lights, then the point lights.

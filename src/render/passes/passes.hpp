@@ -51,6 +51,7 @@ struct FrameResources {
   bool visibility_output = false;
   bool specialize = true;  // RendererOptions::specialize
   RendererOptions::SunWindow sun_window = RendererOptions::SunWindow::automatic;
+  RendererOptions::Scroll scroll_cascades = RendererOptions::Scroll::automatic;
   scene::Scene::Requirements req{};
 
   std::vector<GpuMesh> meshes;

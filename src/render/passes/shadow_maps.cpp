@@ -60,6 +60,7 @@ struct ShadowMapPass::View {
   std::function<bool(const PackedFrame&, uint32_t, glm::ivec2, glm::ivec2, const scene::Bounds&)>
       touches;
   uint32_t viewport = 0;  // the sun: the grid draws' viewport side P; 0: the map's side
+  bool scroll = false;    // the sun: cascades scroll through the grid image (Scroll)
   // The sun: each cascade's grid start, kept while the rest of its grid (texel size, depth
   // range, light, anchor) stays as it was, so a full draw after such a change starts the grid
   // at the cascade's first texel (one rectangle, not four).
@@ -213,6 +214,10 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
       const shadow::CascadeSet& set = f.cascades;
       v.starts.resize(n, glm::dvec2(std::numeric_limits<double>::quiet_NaN()));
       v.grid_key.resize(n, 0);
+      // Without scrolling a new grid every frame: the window sits on a whole map of it, and a
+      // cascade that moved has new matrices, so it is drawn whole straight into the map.
+      if (!v.scroll) std::fill(v.starts.begin(), v.starts.end(),
+                               glm::dvec2(std::numeric_limits<double>::quiet_NaN()));
       for (size_t c = 0; c < set.cascades.size() && c < n; ++c) {
         Hash h;
         h.add(set.cascades[c].texel_world_size);
@@ -391,8 +396,13 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
   for (View& v : views_) {
     const gpu::ImageDesc& d = v.target->desc();
     const uint64_t before = r.image_bytes;
-    v.moving = moving && (v.grid() || cache_);
-    if (v.grid()) {
+    using Scroll = RendererOptions::Scroll;
+    v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
+                            (r.scroll_cascades == Scroll::automatic && r.ctx.info().is_cpu));
+    // Moving casters over the still ones: the sun's grid holds those when it scrolls; without it
+    // the sun draws every caster whole when any changed.
+    v.moving = moving && (v.grid() ? v.scroll : cache_);
+    if (v.scroll) {
       v.base_name = "sun-shadow-grid";
       v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
                                   kMapUsage, 1,
@@ -400,7 +410,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                                       " (the cascades' grid, drawn into sun-shadow-map)");
     }
     using SunWindow = RendererOptions::SunWindow;
-    v.window_by_draw = v.grid() && (r.sun_window == SunWindow::draw ||
+    v.window_by_draw = v.scroll && (r.sun_window == SunWindow::draw ||
                                     (r.sun_window == SunWindow::automatic && !r.ctx.info().is_cpu));
     if (v.window_by_draw) {
       v.window_layout = std::make_unique<gpu::PipelineLayout>(
@@ -438,9 +448,13 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     const std::string mib = std::to_string((cache_bytes + (1u << 20) - 1) >> 20) + " MiB";
     r.report.passes.push_back(
         std::string("shadow-map cache: ") +
-        (cache_ ? "on: a layer is drawn where its key changed, cascades only where they newly "
-                  "reach"
-                : "off (shadows.cache = false): every layer drawn every frame") +
+        (cache_ ? std::string("on: a layer is drawn where its key changed") +
+                      (std::any_of(views_.begin(), views_.end(), [](const View& v) {
+                         return v.scroll;
+                       })
+                           ? ", cascades only where they newly reach"
+                           : "")
+                : std::string("off (shadows.cache = false): every layer drawn every frame")) +
         (moving ? "; moving casters drawn over the still ones" : "") + " (" + mib +
         " beside the maps)");
   }
@@ -537,7 +551,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
       if (cache_ && base.h == v.base_key[l]) {
         const bool near = std::abs(move.x) < side && std::abs(move.y) < side;
         plan = move == glm::ivec2(0) ? View::Base::keep
-               : near && v.grid()    ? View::Base::strips
+               : near && v.scroll    ? View::Base::strips
                                      : View::Base::draw;
       }
       v.base_plan[l] = plan;
@@ -552,7 +566,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
         stats_.texels_drawn +=
             texels - uint64_t(side - std::abs(move.x)) * uint64_t(side - std::abs(move.y));
       }
-      if (v.grid() && !v.moving) {
+      if (v.scroll && !v.moving) {
         const bool aligned = v.window[l].x % side == 0 && v.window[l].y % side == 0;
         if (plan == View::Base::draw && aligned) {
           v.direct[l] = 1;
@@ -664,7 +678,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     gpu::Image& base = v.base();
     const std::string base_label = v.base_label();
     const bool separate = v.has_base();
-    if (v.grid()) {
+    if (v.scroll) {
       // A cascade drawn straight into the map and now scrolling: the map (last frame's, laid
       // out as the grid) copied back into the grid first.
       out.push_back({v.name + "-sync",
@@ -690,8 +704,8 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                      {}});
     }
     // The base: layers drawn whole, and the strips a cascade newly reaches.
-    Step base_step{separate ? v.name + (v.grid() ? "-grid" : "-still") : v.name,
-                   {{base_label, &base, v.grid() ? Use::depth_modify : Use::depth_target}},
+    Step base_step{separate ? v.name + (v.scroll ? "-grid" : "-still") : v.name,
+                   {{base_label, &base, v.scroll ? Use::depth_modify : Use::depth_target}},
                    {},
                    separate ? std::string() : v.name};
     base_step.record = [&v, &base, draw, wrapped, whole](VkCommandBuffer cmd) {
@@ -775,7 +789,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                      },
                      v.moving || v.grid() ? std::string() : v.name});
     }
-    if (v.grid() && !v.moving) {
+    if (v.scroll && !v.moving) {
       // Cascades drawn whole straight into the map (their window on a whole map of the grid).
       Step direct{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
       direct.record = [&v, draw, whole](VkCommandBuffer cmd) {
