@@ -29,6 +29,13 @@
 
 namespace penumbra::render::passes {
 
+// A view's draw block for a frame: its bytes, an anchor per light, a grid window per layer.
+struct ViewDraw {
+  std::vector<std::byte> bytes;
+  std::vector<glm::dvec3> anchors;
+  std::vector<glm::ivec2> windows;
+};
+
 struct ShadowMapPass::View {
   std::string name;   // the timestamp ("sun-shadow")
   std::string image;  // the target's name in the build report ("sun-shadow-map")
@@ -48,11 +55,7 @@ struct ShadowMapPass::View {
   // cascades; the others 0); a layer's slot, the UBO bytes its texels depend on, and whether
   // bounds b reach a texel rectangle [lo, hi) of it (conservatively: a caster outside cannot
   // touch those texels; the sun's rectangle in grid texels, the others' ignored).
-  struct Packed {
-    std::vector<std::byte> bytes;
-    std::vector<glm::dvec3> anchors;
-    std::vector<glm::ivec2> windows;
-  };
+  using Packed = ViewDraw;
   gpu::Buffer draw_ubo;
   std::function<Packed(const PackedFrame&)> pack;
   std::function<uint32_t(uint32_t)> slot;
@@ -180,6 +183,21 @@ glm::dvec3 sun_anchor(const glm::dvec3& camera, double reach) {
   return glm::floor(camera / cell) * cell;
 }
 
+// A spot or point view's draw block: each light's matrices rebased on its own position (its
+// anchor), `layers` layers a light, no grid window.
+template <class Gpu, class Shadow, class Pack>
+ViewDraw pack_lights(const std::vector<Shadow>& shadows, size_t max, size_t layers, Pack pack) {
+  std::vector<Gpu> gpu(max);
+  ViewDraw out;
+  for (size_t i = 0; i < shadows.size(); ++i) {
+    out.anchors.push_back(shadows[i].position);
+    gpu[i] = pack(shadows[i], out.anchors.back());
+  }
+  out.bytes = bytes_of(gpu);
+  out.windows.assign(layers * shadows.size(), glm::ivec2(0));
+  return out;
+}
+
 }  // namespace
 
 ShadowMapPass::ShadowMapPass(FrameResources& r) {
@@ -291,15 +309,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                              VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     v.set = ubo_set(r, *v.layout, v.draw_ubo);
     v.pack = [](const PackedFrame& f) {
-      std::vector<shadow::SpotShadowGpu> gpu(kMaxSpotLights);
-      View::Packed out;
-      for (size_t i = 0; i < f.spot_shadows.size(); ++i) {
-        out.anchors.push_back(f.spot_shadows[i].position);
-        gpu[i] = shadow::pack_spot_shadow(f.spot_shadows[i], out.anchors.back());
-      }
-      out.bytes = bytes_of(gpu);
-      out.windows.assign(f.spot_shadows.size(), glm::ivec2(0));
-      return out;
+      return pack_lights<shadow::SpotShadowGpu>(f.spot_shadows, kMaxSpotLights, 1,
+                                                shadow::pack_spot_shadow);
     };
     v.slot = [](uint32_t i) { return i; };
     v.span = [](uint32_t i) {
@@ -344,15 +355,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     v.draw_ubo = gpu::Buffer(r.ctx, sizeof(shadow::PointShadowGpu) * kMaxPointLights,
                              VK_BUFFER_USAGE_UNIFORM_BUFFER_BIT);
     v.pack = [](const PackedFrame& f) {
-      std::vector<shadow::PointShadowGpu> gpu(kMaxPointLights);
-      View::Packed out;
-      for (size_t i = 0; i < f.point_shadows.size(); ++i) {
-        out.anchors.push_back(f.point_shadows[i].position);
-        gpu[i] = shadow::pack_point_shadow(f.point_shadows[i], out.anchors.back());
-      }
-      out.bytes = bytes_of(gpu);
-      out.windows.assign(6 * f.point_shadows.size(), glm::ivec2(0));
-      return out;
+      return pack_lights<shadow::PointShadowGpu>(f.point_shadows, kMaxPointLights, 6,
+                                                 shadow::pack_point_shadow);
     };
     v.slot = [](uint32_t l) { return l / 6; };
     v.span = [](uint32_t l) {
