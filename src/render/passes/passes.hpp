@@ -225,9 +225,9 @@ class ShadowMapPass final : public Pass {
   gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
   gpu::Buffer sun_ubo, spot_ubo, point_ubo;    // the lookups' matrices (camera-relative)
   uint64_t cache_bytes = 0;                    // the still copies' memory
+  struct View;  // one light kind's maps (shadow_view.hpp)
 
  private:
-  struct View;
   std::vector<View> views_;
   bool cache_ = true;
   uint64_t generation_ = 0;

@@ -1,0 +1,140 @@
+// The shadow-map pass's plan of a frame: each layer's keys, and whether its base is kept,
+// drawn whole or drawn in the strips a scrolled cascade newly reaches (shadow_maps.cpp).
+#include <cstdlib>
+
+#include "shadow_view.hpp"
+
+namespace penumbra::render::passes {
+
+namespace {
+
+// The grid rectangles (x0, y0, x1, y1) a window [to, to + n) covers that [from, from + n) did not.
+std::vector<glm::ivec4> newly_covered(glm::ivec2 from, glm::ivec2 to, int n) {
+  std::vector<glm::ivec4> out;
+  const glm::ivec2 m = to - from;
+  if (m.x > 0) out.emplace_back(from.x + n, to.y, to.x + n, to.y + n);
+  if (m.x < 0) out.emplace_back(to.x, to.y, from.x, to.y + n);
+  if (m.y > 0) out.emplace_back(to.x, from.y + n, to.x + n, to.y + n);
+  if (m.y < 0) out.emplace_back(to.x, to.y, to.x + n, from.y);
+  return out;
+}
+
+}  // namespace
+
+void ShadowMapPass::prepare(FrameResources& r) {
+  const PackedFrame& f = r.packed;
+  if (sun_ubo.handle() != VK_NULL_HANDLE) sun_ubo.write(std::as_bytes(std::span(&f.shadow, 1)));
+  if (spot_ubo.handle() != VK_NULL_HANDLE) spot_ubo.write(std::as_bytes(std::span(f.spot_gpu)));
+  if (point_ubo.handle() != VK_NULL_HANDLE) point_ubo.write(std::as_bytes(std::span(f.point_gpu)));
+  stats_ = {};
+  // Each caster's bounds this frame (the draws are the scene's instances, in order).
+  const std::vector<scene::Bounds> bounds = r.scene.instance_world_bounds();
+  for (View& v : views_) {
+    View::Packed packed = v.pack(f);
+    v.draw_ubo.write(std::span(packed.bytes));
+    v.window = std::move(packed.windows);
+    v.bounds = bounds;
+    v.models.assign(packed.anchors.size(), {});
+    for (size_t s = 0; s < packed.anchors.size(); ++s) {
+      v.models[s].resize(f.draws.size());
+      for (size_t i = 0; i < f.draws.size(); ++i) {
+        glm::dmat4 m = f.draws[i].world;
+        m[3] -= glm::dvec4(packed.anchors[s], 0.0);
+        v.models[s][i] = glm::mat4(m);
+      }
+    }
+    const uint32_t layers = v.layers(f);
+    const int side = int(v.target->desc().width);
+    const uint64_t texels = uint64_t(side) * uint64_t(side);
+    v.base_key.resize(layers, 0);
+    v.map_key.resize(layers, 0);
+    v.base_window.resize(layers, glm::ivec2(0));
+    v.base_plan.assign(layers, View::Base::draw);
+    v.strips.assign(layers, {});
+    v.restore.assign(layers, v.has_base() ? 1 : 0);
+    v.direct.assign(layers, 0);
+    v.sync.assign(layers, 0);
+    v.in_map.resize(layers, 0);
+    stats_.layers += layers;
+    for (uint32_t l = 0; l < layers; ++l) {
+      // The base's key: what its texels depend on besides the window: the grid or matrices, the
+      // still casters with their transforms (as drawn) and materials, the pipelines.
+      Hash common;
+      common.add(generation_);
+      common.add(r.reverse_z);
+      const auto [offset, size] = v.span(l);
+      common.bytes(packed.bytes.data() + offset, size);
+      common.add(!v.draws || v.draws(f, l));
+      Hash base = common, moving = common;
+      moving.add(v.window[l]);
+      bool any_moving = false;
+      const std::vector<glm::mat4>& models = v.models[v.slot(l)];
+      for (size_t i = 0; i < f.draws.size(); ++i) {
+        const Draw& d = f.draws[i];
+        if (!d.in_maps) continue;
+        const bool moves = v.moving && d.moves;
+        // A moving caster counts where its bounds reach the layer this frame.
+        if (moves &&
+            !v.touches(f, l, v.window[l], v.window[l] + glm::ivec2(side), bounds[i]))
+          continue;
+        any_moving = any_moving || moves;
+        Hash& h = moves ? moving : base;
+        h.add(i);
+        h.add(models[i]);
+        h.add(d.mesh);
+        h.add(d.masked);
+        h.add(d.push.mask);
+        h.add(d.mask_texture);
+      }
+      View::Base plan = View::Base::draw;
+      const glm::ivec2 move = v.window[l] - v.base_window[l];
+      if (cache_ && base.h == v.base_key[l]) {
+        const bool near = std::abs(move.x) < side && std::abs(move.y) < side;
+        plan = move == glm::ivec2(0) ? View::Base::keep
+               : near && v.scroll    ? View::Base::strips
+                                     : View::Base::draw;
+      }
+      v.base_plan[l] = plan;
+      if (plan == View::Base::strips) v.strips[l] = newly_covered(v.base_window[l], v.window[l], side);
+      v.base_key[l] = base.h;
+      v.base_window[l] = v.window[l];
+      if (plan == View::Base::draw) {
+        ++stats_.drawn;
+        stats_.texels_drawn += texels;
+      } else if (plan == View::Base::strips) {
+        ++stats_.scrolled;
+        stats_.texels_drawn +=
+            texels - uint64_t(side - std::abs(move.x)) * uint64_t(side - std::abs(move.y));
+      }
+      if (v.scroll && !v.moving) {
+        const bool aligned = v.window[l].x % side == 0 && v.window[l].y % side == 0;
+        if (plan == View::Base::draw && aligned) {
+          v.direct[l] = 1;
+          v.in_map[l] = 1;
+          v.base_plan[l] = View::Base::keep;
+          v.restore[l] = 0;
+          v.map_key[l] = 0;
+          continue;
+        }
+        if (plan == View::Base::strips && v.in_map[l]) v.sync[l] = 1;
+        if (plan != View::Base::keep) v.in_map[l] = 0;
+        if (v.in_map[l]) {  // kept, and the map holds it
+          v.restore[l] = 0;
+          continue;
+        }
+      }
+      if (!v.has_base()) continue;
+      Hash full = moving;
+      full.add(base.h);
+      const bool changed = full.h != v.map_key[l] || plan != View::Base::keep;
+      v.map_key[l] = full.h;
+      v.restore[l] = !cache_ || changed ? 1 : 0;
+      if (v.restore[l] && any_moving) {
+        ++stats_.moving_drawn;
+        stats_.texels_drawn += texels;
+      }
+    }
+  }
+}
+
+}  // namespace penumbra::render::passes
