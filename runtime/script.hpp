@@ -9,7 +9,8 @@
 //   set KEY VALUE               a parameter by its scene-file name: shadows.filter pcss,
 //                               contact.steps 0, shadows.resolution 4096, camera.position 0,2,6 ...
 //   get KEY                     print a parameter
-//   view NAME                   lit, shadow_factor, cascades, contact_mask, texel_density, penumbra
+//   view NAME                   lit, shadow_factor, cascades, contact_mask, texel_density, penumbra,
+//                               redrawn
 //   frame N                     the frame index the noise patterns use (default 0)
 //   render [N]                  render N frames (default 1); edits are reloaded before each
 //   screenshot PATH.png         the last frame (renders one first if there is none)

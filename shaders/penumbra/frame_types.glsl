@@ -58,5 +58,6 @@ const uint kViewCascades = 2u;
 const uint kViewContactMask = 3u;
 const uint kViewTexelDensity = 4u;
 const uint kViewPenumbra = 5u;
+const uint kViewRedrawn = 6u;
 
 #endif

@@ -34,7 +34,13 @@ struct ShadowGpu {
   vec4 camera_forward;   // xyz unit
   uvec4 counts;    // x count, y depth convention, z resolution, w layout
   uvec4 modes;     // x cascade selection (0 view distance, 1 containment)
+  uvec4 redrawn[PENUMBRA_MAX_CASCADES];  // x kRedrawn* bits, yz move in texels (debug view)
 };
+
+// ShadowGpu.redrawn.x, SpotShadowGpu.info.z, PointShadowGpu.info.w (4 bits a face).
+#define PENUMBRA_REDRAWN_WHOLE 1u
+#define PENUMBRA_REDRAWN_STRIPS 2u
+#define PENUMBRA_REDRAWN_MOVING 4u
 
 // The sun's depth pass (shadow_depth.vert; gpu_types.hpp says how): anchor-relative positions to
 // texels of a grid fixed in light space.
@@ -52,14 +58,14 @@ struct SpotShadowGpu {
   vec4 position_near;  // xyz relative to the render origin, w near
   vec4 direction_far;  // xyz unit axis, w far
   vec4 params;         // x cos(outer), y tan(outer), z texel world size at distance 1
-  uvec4 info;          // x resolution, y depth convention
+  uvec4 info;          // x resolution, y depth convention, z redrawn bits (debug view)
 };
 
 struct PointShadowGpu {
   mat4 face_view_proj[6];  // +X, -X, +Y, -Y, +Z, -Z
   vec4 position;           // xyz relative to the render origin
   vec4 depth_range;        // x near, y far, z 1 / (far - near), w clip near
-  uvec4 info;              // x face mask, y depth convention, z resolution
+  uvec4 info;              // x face mask, y depth convention, z resolution, w redrawn bits
 };
 
 #endif  // PENUMBRA_SHADOW_TYPES_GLSL

@@ -181,6 +181,13 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
 #endif
 
 #if PENUMBRA_POINT_SHADOWS > 0
+// The debug view `redrawn`: what the shadow-map cache drew this frame of a map (or cube face)
+// with bits b (shadow_types.glsl): 3 drawn whole, 1 restored with moving casters drawn over, 0
+// kept (the sun's codes, shadow_resolve.comp; a spot or point map is never scrolled).
+float redrawn_code(uint b) {
+  return (b & PENUMBRA_REDRAWN_WHOLE) != 0u ? 3.0 : (b & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
+}
+
 // The cube face a light-to-receiver direction selects (+X, -X, +Y, -Y, +Z, -Z: 0..5).
 float cube_face_of(vec3 v) {
   vec3 a = abs(v);
@@ -268,6 +275,7 @@ void main() {
       bool first = debug.w == 0.0;
       vec4 d = debug;
       visibility[i] = spot_visibility(frame.spots[i], spot_shadows[map], map, p, n, rotation, d);
+      if (first && frame.mode.w == kViewRedrawn) d.z = redrawn_code(spot_shadows[map].info.z);
       if (first) debug = d;
     }
   }
@@ -280,6 +288,8 @@ void main() {
       vec4 d = debug;
       visibility[kMaxSpotLights + i] =
           point_visibility(frame.points[i], point_shadows[map], map, p, n, rotation, d);
+      if (first && frame.mode.w == kViewRedrawn)  // the face d.x - 1's bits
+        d.z = redrawn_code(point_shadows[map].info.w >> (4u * uint(d.x - 1.0)) & 15u);
       if (first) debug = d;
     }
   }

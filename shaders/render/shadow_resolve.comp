@@ -2,7 +2,8 @@
 // Sun shadow resolve: per pixel, cascade select + blend + distance fade + normal-offset and
 // world-unit depth bias + the configured filter, all through the library in penumbra/shadow.glsl.
 // Output rgba16f: r visibility (1 lit), g cascade index (-1 none), b PCSS penumbra width in
-// texels (-1: the surface faces away from the sun), a shadow-map texels per screen pixel (texel density).
+// texels (-1: the surface faces away from the sun; in the debug view `redrawn`, redrawn_code),
+// a shadow-map texels per screen pixel (texel density).
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/shadow.glsl"
@@ -148,6 +149,24 @@ int select_cascade_containing(vec3 p, int count) {
   return n;
 }
 
+// The debug view `redrawn`: what the shadow-map cache drew this frame of the texel of cascade c
+// that p falls in (ShadowGpu.redrawn): 3 the cascade was drawn whole, 2 the texel lies in a
+// strip a scrolled cascade newly reached, 1 the cascade was restored and moving casters drawn
+// over it, 0 kept as it was.
+float redrawn_code(int c, vec3 p) {
+  uvec4 r = shadow.redrawn[c];
+  if ((r.x & PENUMBRA_REDRAWN_WHOLE) != 0u) return 3.0;
+  if ((r.x & PENUMBRA_REDRAWN_STRIPS) != 0u) {
+    float n = float(shadow.counts.z);
+    vec2 t = floor(world_to_shadow_coord(shadow.cascades[c].view_proj, p).xy * n);
+    vec2 m = vec2(ivec2(r.yz));  // the move across the map: the columns and rows it brought in
+    if ((m.x > 0.0 && t.x >= n - m.x) || (m.x < 0.0 && t.x < -m.x) ||
+        (m.y > 0.0 && t.y >= n - m.y) || (m.y < 0.0 && t.y < -m.y))
+      return 2.0;
+  }
+  return (r.x & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
+}
+
 // The camera-relative world position seen at screen uv with depth buffer value depth.
 vec3 unproject(vec2 uv, float depth) {
   vec4 h = frame.inv_view_proj * vec4(uv * 2.0 - 1.0, depth, 1.0);
@@ -219,5 +238,6 @@ void main() {
   // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.
   float pixel_world = view_depth * 2.0 * frame.projection.z * frame.viewport.w;
   float density = texel_world > 0.0 ? pixel_world / texel_world : 0.0;
+  if (frame.mode.w == kViewRedrawn) penumbra = c < count ? redrawn_code(c, p) : 0.0;
   imageStore(shadow_info, pixel, vec4(visibility, c < count ? float(c) : -1.0, penumbra, density));
 }

@@ -73,7 +73,8 @@ std::vector<Param> make_params() {
   const std::vector<std::string_view> selections{"depth", "containment"};
   const std::vector<std::string_view> layouts{"cascades", "clipmap"};
   const std::vector<std::string_view> views{"lit",          "shadow_factor", "cascades",
-                                            "contact_mask", "texel_density", "penumbra"};
+                                            "contact_mask", "texel_density", "penumbra",
+                                            "redrawn"};
   const std::vector<Row> rows = {
       // [camera]
       {"camera.position",

@@ -9,6 +9,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <functional>
+#include <glm/gtc/matrix_inverse.hpp>
+#include <penumbra/render/frame_pack.hpp>
 #include <penumbra/render/renderer.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
@@ -245,6 +247,112 @@ TEST_F(ShadowCache, TheSunsMapIsTheSameCopiedOrDrawnFromItsGrid) {
     EXPECT_TRUE(ma[0] == mb[0]) << "frame " << k << ": " << where(ma[0], mb[0]);
     EXPECT_TRUE(a.read_rgba8() == b.read_rgba8()) << "frame " << k;
   }
+}
+
+// The pixels of a `redrawn` debug image by colour: red (a layer drawn whole), yellow (a strip a
+// scrolled cascade newly reached), cyan (restored, moving casters drawn over), the rest grey.
+struct RedrawnPixels {
+  size_t whole = 0, strips = 0, moving = 0, other = 0, total = 0;
+};
+RedrawnPixels classify(const std::vector<uint8_t>& rgba) {
+  RedrawnPixels p;
+  for (size_t i = 0; i + 3 < rgba.size(); i += 4, ++p.total) {
+    const int r = rgba[i], g = rgba[i + 1], b = rgba[i + 2];
+    if (r == g && g == b) continue;
+    if (r > b + 60 && g < r - 60) ++p.whole;
+    else if (r > b + 60 && g > b + 60) ++p.strips;
+    else if (b > r + 60 && g > r + 60) ++p.moving;
+    else ++p.other;
+  }
+  return p;
+}
+
+// The debug view `redrawn` shows what the cache drew this frame, as its counts say: every
+// shadowed pixel red on the first frame, nothing on a still frame, strips along a walk, and
+// the local lights' maps restored under moving casters.
+TEST_F(ShadowCache, TheRedrawnViewShowsWhatEachFrameDrew) {
+  scene::Scene s = filled("default");
+  s.render.view = scene::DebugView::redrawn;
+  // Selected by containment, a cascade's pixels reach its edges, where the strips it newly
+  // reaches lie (by view distance they lie beyond the slice it serves: drawn before they show).
+  scene::set_param(s, "shadows.selection", "containment");
+  s.camera.move = {3.0f, 0.0f, -1.5f};
+  s.camera.move_frames = 10;
+  render::Renderer r(ctx(), s, scrolling());
+  const uint32_t n = s.shadows.resolution;
+  size_t strips = 0;
+  for (uint32_t k = 0; k < 6; ++k) {
+    SCOPED_TRACE("frame " + std::to_string(k));
+    r.render(k);
+    const auto& stats = r.shadow_cache_stats();
+    const RedrawnPixels p = classify(r.read_rgba8());
+    EXPECT_EQ(p.other, 0u);
+    EXPECT_EQ(p.moving, 0u);
+    if (k == 0) {
+      EXPECT_GT(p.whole, p.total / 2);
+    }
+    if (stats.drawn == 0) {
+      EXPECT_EQ(p.whole, 0u);
+    }
+    if (k == 0) continue;
+    // A pixel shown in a strip reads a texel its cascade did not hold in the last frame (its
+    // point lay outside the cascade then, give or take the two texels the edges may round by);
+    // one shown kept in a cascade that scrolled, a texel it held.
+    const render::GBuffer g = r.read_gbuffer();
+    const std::vector<float> info = r.read_shadow_info();
+    render::FrameCaps caps;
+    caps.sun_shadows = true;
+    const render::PackedFrame last = render::pack_frame(s, g.width, g.height, caps, k - 1);
+    const glm::dmat4 inv = glm::inverse(g.camera.proj * g.camera.view);
+    size_t shown = 0, wrong = 0;
+    for (uint32_t y = 0; y < g.height; ++y)
+      for (uint32_t x = 0; x < g.width; ++x) {
+        const size_t i = size_t(y) * g.width + x;
+        const int c = int(info[4 * i + 1]), code = int(info[4 * i + 2] + 0.5f);
+        if (c < 0 || g.normal_view[i].w == 0.0f || (code != 0 && code != 2)) continue;
+        const glm::dvec2 ndc((x + 0.5) / g.width * 2.0 - 1.0, (y + 0.5) / g.height * 2.0 - 1.0);
+        const glm::dvec4 h = inv * glm::dvec4(ndc, g.depth[i], 1.0);
+        const glm::dvec3 world = g.camera.origin + glm::dvec3(h) / h.w;
+        const glm::dvec4 clip = glm::dmat4(last.shadow.cascades[c].view_proj) *
+                                glm::dvec4(world - last.origin, 1.0);
+        const glm::dvec2 uv = glm::dvec2(clip) / clip.w * 0.5 + 0.5;
+        const double e = 2.0 / n;
+        const bool held = uv.x >= e && uv.x <= 1 - e && uv.y >= e && uv.y <= 1 - e;
+        const bool near = uv.x >= -e && uv.x <= 1 + e && uv.y >= -e && uv.y <= 1 + e;
+        if (code == 2) {
+          ++shown;
+          wrong += held ? 1 : 0;
+        } else if (!near) {
+          ++wrong;
+        }
+      }
+    EXPECT_EQ(wrong, 0u) << "of " << shown << " strip pixels";
+    if (stats.scrolled == 0) {
+      EXPECT_EQ(shown, 0u);
+    }
+    strips += shown;
+  }
+  EXPECT_GT(strips, 100u);
+  // A still camera: the second frame draws nothing.
+  s.camera.move_frames = 0;
+  s.camera.move = {};
+  render::Renderer still(ctx(), s, scrolling());
+  still.render(0);
+  still.render(1);
+  EXPECT_EQ(still.shadow_cache_stats().drawn + still.shadow_cache_stats().scrolled, 0u);
+  const RedrawnPixels p = classify(still.read_rgba8());
+  EXPECT_EQ(p.whole + p.strips + p.moving + p.other, 0u);
+
+  scene::Scene room = small("indoor");
+  room.render.view = scene::DebugView::redrawn;
+  for (size_t i = 0; i < room.instances.size(); ++i)
+    if (room.instances[i].in_shadow_maps() && i % 3 == 1) make_move(room, i, {1.5f, 0.0f, 0.5f}, 2);
+  render::Renderer moving(ctx(), room);
+  for (uint32_t k = 0; k < 3; ++k) moving.render(k);
+  EXPECT_GT(moving.shadow_cache_stats().moving_drawn, 0u);
+  const RedrawnPixels m = classify(moving.read_rgba8());
+  EXPECT_GT(m.moving, m.total / 2);
+  EXPECT_EQ(m.whole + m.strips + m.other, 0u);
 }
 
 TEST_F(ShadowCache, TheBuildReportNamesTheCacheAndItsMemory) {

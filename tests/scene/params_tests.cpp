@@ -330,7 +330,8 @@ TEST(Params, ChoicesAreTheEnumsNames) {
   EXPECT_EQ(to_string(Filter::poisson), "poisson");
   EXPECT_EQ(to_string(CascadeFit::slice_sphere), "slice_sphere");
   EXPECT_EQ(to_string(DebugView::penumbra), "penumbra");
-  EXPECT_EQ(param("render.view").choices.size(), std::size_t(DebugView::penumbra) + 1);
+  EXPECT_EQ(to_string(DebugView::redrawn), "redrawn");
+  EXPECT_EQ(param("render.view").choices.size(), std::size_t(DebugView::redrawn) + 1);
   EXPECT_EQ(param("shadows.filter").choices.size(), filter_table().size());
   EXPECT_THAT(
       [] {

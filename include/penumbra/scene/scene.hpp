@@ -258,7 +258,15 @@ struct ContactSettings {
   float edge_fade = 0.05f;
 };
 
-enum class DebugView { lit, shadow_factor, cascades, contact_mask, texel_density, penumbra };
+enum class DebugView {
+  lit,
+  shadow_factor,
+  cascades,
+  contact_mask,
+  texel_density,
+  penumbra,
+  redrawn,
+};
 
 struct RenderSettings {
   std::uint32_t width = 1280, height = 720;

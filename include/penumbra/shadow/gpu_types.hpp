@@ -55,7 +55,18 @@ struct alignas(16) ShadowGpu {
   // x: CascadeSelection (0 by view distance, 1 the finest cascade that holds the receiver);
   // y, z, w: 0.
   glm::uvec4 modes;
+  // What the renderer's shadow-map cache drew of each cascade this frame, for the debug view
+  // `redrawn` (the lookups never read it; 0 elsewhere): x the kRedrawn* bits; y, z the
+  // cascade's move across its map since the last frame in texels (two's complement): with
+  // kRedrawnStrips, the columns and rows that move brought in are the texels drawn.
+  glm::uvec4 redrawn[kMaxCascades];
 };
+
+// ShadowGpu::redrawn, SpotShadowGpu::info.z and PointShadowGpu::info.w (4 bits a face): what
+// the shadow-map cache drew into a layer this frame. None: the layer was kept as it was.
+inline constexpr std::uint32_t kRedrawnWhole = 1;   // drawn whole
+inline constexpr std::uint32_t kRedrawnStrips = 2;  // drawn where it newly reaches (scrolled)
+inline constexpr std::uint32_t kRedrawnMoving = 4;  // restored, moving casters drawn over
 
 // What the sun's depth pass draws a cascade with (shaders/render/shadow_depth.vert): positions
 // relative to the maps' anchor (not the render origin) go to texels of a grid fixed in light
@@ -83,7 +94,7 @@ struct alignas(16) SpotShadowGpu {
   // x: cos(outer angle); y: tan(outer angle) (= NDC 1); z: world texel size at distance 1
   // (2 tan / resolution); w: unused (0)
   glm::vec4 params;
-  // x: resolution; y: DepthConvention; z, w: 0
+  // x: resolution; y: DepthConvention; z: kRedrawn* bits of this frame (debug view); w: 0
   glm::uvec4 info;
 };
 
@@ -93,7 +104,8 @@ struct alignas(16) PointShadowGpu {
   // x: depth_near, y: depth_far, z: 1 / (depth_far - depth_near), w: clip near. Stored depth
   // t = clamp((length(p - position.xyz) - x) * z, 0, 1), 1 - t under reverse-Z.
   glm::vec4 depth_range;
-  // x: face mask; y: DepthConvention; z: resolution; w: 0
+  // x: face mask; y: DepthConvention; z: resolution; w: kRedrawn* bits of this frame, face f
+  // at bits 4f..4f+3 (debug view)
   glm::uvec4 info;
 };
 
@@ -113,7 +125,8 @@ static_assert(offsetof(ShadowGpu, camera_position) == 720);
 static_assert(offsetof(ShadowGpu, camera_forward) == 736);
 static_assert(offsetof(ShadowGpu, counts) == 752);
 static_assert(offsetof(ShadowGpu, modes) == 768);
-static_assert(sizeof(ShadowGpu) == 784);
+static_assert(offsetof(ShadowGpu, redrawn) == 784);
+static_assert(sizeof(ShadowGpu) == 912);
 
 static_assert(offsetof(SpotShadowGpu, view_proj) == 0);
 static_assert(offsetof(SpotShadowGpu, position_near) == 64);

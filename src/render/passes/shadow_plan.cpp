@@ -23,9 +23,6 @@ std::vector<glm::ivec4> newly_covered(glm::ivec2 from, glm::ivec2 to, int n) {
 
 void ShadowMapPass::prepare(FrameResources& r) {
   const PackedFrame& f = r.packed;
-  if (sun_ubo.handle() != VK_NULL_HANDLE) sun_ubo.write(std::as_bytes(std::span(&f.shadow, 1)));
-  if (spot_ubo.handle() != VK_NULL_HANDLE) spot_ubo.write(std::as_bytes(std::span(f.spot_gpu)));
-  if (point_ubo.handle() != VK_NULL_HANDLE) point_ubo.write(std::as_bytes(std::span(f.point_gpu)));
   stats_ = {};
   // Each caster's bounds this frame (the draws are the scene's instances, in order).
   const std::vector<scene::Bounds> bounds = r.scene.instance_world_bounds();
@@ -55,6 +52,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
     v.direct.assign(layers, 0);
     v.sync.assign(layers, 0);
     v.in_map.resize(layers, 0);
+    v.redrawn.assign(layers, glm::uvec4(0));
     stats_.layers += layers;
     for (uint32_t l = 0; l < layers; ++l) {
       // The base's key: what its texels depend on besides the window: the grid or matrices, the
@@ -95,6 +93,9 @@ void ShadowMapPass::prepare(FrameResources& r) {
                                      : View::Base::draw;
       }
       v.base_plan[l] = plan;
+      if (plan == View::Base::draw) v.redrawn[l].x = shadow::kRedrawnWhole;
+      if (plan == View::Base::strips)
+        v.redrawn[l] = glm::uvec4(shadow::kRedrawnStrips, uint32_t(move.x), uint32_t(move.y), 0);
       if (plan == View::Base::strips) v.strips[l] = newly_covered(v.base_window[l], v.window[l], side);
       v.base_key[l] = base.h;
       v.base_window[l] = v.window[l];
@@ -130,9 +131,29 @@ void ShadowMapPass::prepare(FrameResources& r) {
       v.map_key[l] = full.h;
       v.restore[l] = !cache_ || changed ? 1 : 0;
       if (v.restore[l] && any_moving) {
+        v.redrawn[l].x |= shadow::kRedrawnMoving;
         ++stats_.moving_drawn;
         stats_.texels_drawn += texels;
       }
+    }
+  }
+  // The lookups' blocks, with what was drawn of each layer (the debug view `redrawn`).
+  for (const View& v : views_) {
+    if (v.target == &sun_map) {
+      shadow::ShadowGpu sun = f.shadow;
+      for (size_t c = 0; c < v.redrawn.size() && c < shadow::kMaxCascades; ++c)
+        sun.redrawn[c] = v.redrawn[c];
+      sun_ubo.write(std::as_bytes(std::span(&sun, 1)));
+    } else if (v.target == &spot_maps) {
+      std::vector<shadow::SpotShadowGpu> spots = f.spot_gpu;
+      for (size_t i = 0; i < v.redrawn.size() && i < spots.size(); ++i)
+        spots[i].info.z = v.redrawn[i].x;
+      spot_ubo.write(std::as_bytes(std::span(spots)));
+    } else if (v.target == &point_cubes) {
+      std::vector<shadow::PointShadowGpu> points = f.point_gpu;
+      for (size_t l = 0; l < v.redrawn.size() && l / 6 < points.size(); ++l)
+        points[l / 6].info.w |= v.redrawn[l].x << (4 * (l % 6));
+      point_ubo.write(std::as_bytes(std::span(points)));
     }
   }
 }

@@ -78,6 +78,9 @@ struct ShadowMapPass::View {
   // copies.
   std::vector<uint8_t> direct, sync, in_map;
   std::vector<uint64_t> base_key, map_key;
+  // What was drawn of each layer (x kRedrawn* bits; y, z the sun's move in texels), for the
+  // lookups' blocks and so the debug view `redrawn`.
+  std::vector<glm::uvec4> redrawn;
   std::vector<glm::ivec2> base_window, window;
   std::vector<std::vector<glm::mat4>> models;  // per slot, per draw
   std::vector<scene::Bounds> bounds;           // per draw, this frame
