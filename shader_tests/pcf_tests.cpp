@@ -46,7 +46,9 @@ ref::DepthMap random_map(Rng& rng, int width, int height) {
 // A compare texture of one or more layers (array when layers.size() > 1 or array is set), linear
 // filtering, clamp to edge, the convention's compare op.
 std::shared_ptr<Texture> compare_texture(const std::vector<ref::DepthMap>& layers, bool reverse_z,
-                                         bool array = false) {
+                                         bool array = false,
+                                         VkSamplerAddressMode address =
+                                             VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE) {
   DepthTextureDesc d;
   d.width = static_cast<uint32_t>(layers[0].width);
   d.height = static_cast<uint32_t>(layers[0].height);
@@ -55,6 +57,7 @@ std::shared_ptr<Texture> compare_texture(const std::vector<ref::DepthMap>& layer
   d.sampler.filter = VK_FILTER_LINEAR;
   d.sampler.compare = true;
   d.sampler.compare_op = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
+  d.sampler.address = address;
   std::vector<float> all;
   for (const auto& l : layers) all.insert(all.end(), l.depth.begin(), l.depth.end());
   return make_depth_texture(d, all);
@@ -161,6 +164,78 @@ TEST_F(PcfTest, GridArrayMatchesBoxReferencePerLayer) {
 // A half-plane occluder: texels x < 32 hold a blocker, the rest the background, and the receiver
 // lies between them. The box of width 2r+1 texels centred s texels right of the edge is lit over
 // the part right of the edge: coverage clamp((s + r + 0.5) / (2r + 1), 0, 1), a linear ramp.
+// Windowed lookups (pcf.glsl): each layer held at an offset of a toroidal image of its size,
+// sampled with repeat addressing through window = (offset, 1, 0), reads what the layer itself
+// gives with clamp-to-edge addressing, taps beyond its edges included. The two sides quantise
+// their tap weights apart, so they agree within twice the tap bound (as the 2D and array views
+// of pcss_tests do). A power-of-two size and one that is not.
+TEST_F(PcfTest, WindowedArrayLookupsReadTheLayerThroughItsToroidalImage) {
+  using GridWindowFn = ShaderFunction<float(Sampler2DArrayShadow, glm::vec3, int32_t, int32_t,
+                                            glm::vec2, glm::vec4)>;
+  using DiskWindowFn = ShaderFunction<float(Sampler2DArrayShadow, glm::vec3, int32_t, int32_t,
+                                            float, float, glm::vec2, glm::vec4)>;
+  Rng rng(107);
+  for (int size : {32, 24}) {
+    std::vector<ref::DepthMap> layers, rolled;
+    std::vector<glm::vec4> windows;
+    for (int l = 0; l < 3; ++l) {
+      layers.push_back(random_map(rng, size, size));
+      const int ox = (7 + 11 * l) % size, oy = (size - 5 - 3 * l) % size;
+      rolled.push_back(layers.back().rolled(ox, oy));
+      windows.emplace_back(float(ox), float(oy), 1.0f, 0.0f);
+    }
+    const glm::vec2 texel = texel_size_of(layers[0]);
+    GridArrayFn grid("penumbra/pcf.glsl", "pcf_grid_array");
+    GridWindowFn grid_window("penumbra/pcf.glsl", "pcf_grid_array");
+    DiskArrayFn poisson("penumbra/pcf.glsl", "pcf_poisson_array"),
+        vogel("penumbra/pcf.glsl", "pcf_vogel_array");
+    DiskWindowFn poisson_window("penumbra/pcf.glsl", "pcf_poisson_array"),
+        vogel_window("penumbra/pcf.glsl", "pcf_vogel_array");
+    for (bool reverse_z : {true, false}) {
+      SCOPED_TRACE("size " + std::to_string(size) + ", reverse_z " + std::to_string(reverse_z));
+      const auto map = compare_texture(layers, reverse_z);
+      const auto image = compare_texture(rolled, reverse_z, true, VK_SAMPLER_ADDRESS_MODE_REPEAT);
+      grid.bind(0, map);
+      poisson.bind(0, map);
+      vogel.bind(0, map);
+      grid_window.bind(0, image);
+      poisson_window.bind(0, image);
+      vogel_window.bind(0, image);
+      std::vector<std::tuple<glm::vec3, int32_t, int32_t, glm::vec2>> g;
+      std::vector<std::tuple<glm::vec3, int32_t, int32_t, glm::vec2, glm::vec4>> gw;
+      std::vector<std::tuple<glm::vec3, int32_t, int32_t, float, float, glm::vec2>> d;
+      std::vector<std::tuple<glm::vec3, int32_t, int32_t, float, float, glm::vec2, glm::vec4>> dw;
+      for (int i = 0; i < 4000; ++i) {
+        // Half the cases within three texels of an edge, where the taps leave the layer.
+        const bool edge = i % 2 == 0;
+        const auto near_edge = [&] {
+          const double t = 3.0 * rng.next_unit() / size;
+          return rng.next_unit() < 0.5 ? t : 1.0 - t;
+        };
+        const glm::vec3 c(float(edge ? near_edge() : rng.next_unit()),
+                          float(i % 4 == 0 ? near_edge() : rng.next_unit()),
+                          float(rng.next_unit()));
+        const int layer = i % 3, r = (i / 3) % 6;
+        const float radius = float(4.0 * rng.next_unit()), rot = float(kTwoPi * rng.next_unit());
+        const int taps = 1 + (i / 7) % 32;
+        g.emplace_back(c, layer, r, texel);
+        gw.emplace_back(c, layer, r, texel, windows[size_t(layer)]);
+        d.emplace_back(c, layer, taps, radius, rot, texel);
+        dw.emplace_back(c, layer, taps, radius, rot, texel, windows[size_t(layer)]);
+      }
+      PENUMBRA_EXPECT_ALL_NEAR(grid.run(g), grid_window.run(gw),
+                               Tolerance::absolute(2 * grid_bound()),
+                               [&](size_t i) { return format_tuple(gw[i]); });
+      PENUMBRA_EXPECT_ALL_NEAR(poisson.run(d), poisson_window.run(dw),
+                               Tolerance::absolute(2 * disk_bound()),
+                               [&](size_t i) { return format_tuple(dw[i]); });
+      PENUMBRA_EXPECT_ALL_NEAR(vogel.run(d), vogel_window.run(dw),
+                               Tolerance::absolute(2 * disk_bound()),
+                               [&](size_t i) { return format_tuple(dw[i]); });
+    }
+  }
+}
+
 TEST_F(PcfTest, HalfPlaneOccluderGivesLinearCoverageRampPerRadius) {
   const int size = 64, edge = 32;
   GridFn pcf("penumbra/pcf.glsl", "pcf_grid");

@@ -65,7 +65,9 @@ ref::DepthMap scene_map(Rng& rng, int width, int height, int boxes, bool reverse
 }
 
 std::shared_ptr<Texture> compare_texture(const std::vector<ref::DepthMap>& layers, bool reverse_z,
-                                         bool array = false) {
+                                         bool array = false,
+                                         VkSamplerAddressMode address =
+                                             VK_SAMPLER_ADDRESS_MODE_CLAMP_TO_EDGE) {
   DepthTextureDesc d;
   d.width = uint32_t(layers[0].width);
   d.height = uint32_t(layers[0].height);
@@ -74,6 +76,7 @@ std::shared_ptr<Texture> compare_texture(const std::vector<ref::DepthMap>& layer
   d.sampler.filter = VK_FILTER_LINEAR;
   d.sampler.compare = true;
   d.sampler.compare_op = reverse_z ? VK_COMPARE_OP_GREATER_OR_EQUAL : VK_COMPARE_OP_LESS_OR_EQUAL;
+  d.sampler.address = address;
   std::vector<float> all;
   for (const auto& l : layers) all.insert(all.end(), l.depth.begin(), l.depth.end());
   return make_depth_texture(d, all);
@@ -338,6 +341,65 @@ TEST_F(PcssTest, ArrayVariantsMatchThe2DFunctionsPerLayer) {
       PENUMBRA_EXPECT_ALL_NEAR(pcss.run(flat), pcss_array.run(arr),
                                Tolerance::absolute(2 * tap_bound()));
     }
+  }
+}
+
+// Windowed lookups (pcf.glsl): each layer held at an offset of a toroidal image of its size,
+// read through window = (offset, 1, 0) with repeat addressing: the blocker search finds exactly
+// what it finds in the layer itself (texelFetch), and PCSS agrees within twice the tap bound (its
+// taps quantise their weights apart), search disks crossing the edges included.
+TEST_F(PcssTest, WindowedArrayLookupsReadTheLayerThroughItsToroidalImage) {
+  using SearchWindowFn =
+      ShaderFunction<void(Sampler2DArray, glm::vec3, int32_t, float, int32_t, float, glm::vec2,
+                          bool, glm::vec4, Out<float>, Out<int32_t>)>;
+  using PcssWindowFn = ShaderFunction<float(Sampler2DArrayShadow, Sampler2DArray, glm::vec3, int32_t,
+                                            glm::vec2, Params, int32_t, float, bool, glm::vec4)>;
+  Rng rng(306);
+  for (bool reverse_z : {true, false}) {
+    SCOPED_TRACE("reverse_z " + std::to_string(reverse_z));
+    std::vector<ref::DepthMap> layers, rolled;
+    std::vector<glm::vec4> windows;
+    for (int l = 0; l < 3; ++l) {
+      layers.push_back(scene_map(rng, 64, 64, 20, reverse_z));
+      rolled.push_back(layers.back().rolled(13 + 20 * l, 63 - 9 * l));
+      windows.emplace_back(float(13 + 20 * l), float(63 - 9 * l), 1.0f, 0.0f);
+    }
+    const glm::vec2 texel = texel_size_of(layers[0]);
+    SearchArrayFn search("penumbra/pcss.glsl", "pcss_blocker_search_array");
+    SearchWindowFn search_window("penumbra/pcss.glsl", "pcss_blocker_search_array");
+    PcssArrayFn pcss("penumbra/pcss.glsl", "pcss_shadow_array");
+    PcssWindowFn pcss_window("penumbra/pcss.glsl", "pcss_shadow_array");
+    search.bind(0, raw_texture(layers));
+    pcss.bind(0, compare_texture(layers, reverse_z)).bind(1, raw_texture(layers));
+    search_window.bind(0, raw_texture(rolled));
+    pcss_window.bind(0, compare_texture(rolled, reverse_z, true, VK_SAMPLER_ADDRESS_MODE_REPEAT))
+        .bind(1, raw_texture(rolled));
+    std::vector<std::tuple<glm::vec3, int32_t, float, int32_t, float, glm::vec2, bool>> s;
+    std::vector<std::tuple<glm::vec3, int32_t, float, int32_t, float, glm::vec2, bool, glm::vec4>>
+        sw;
+    std::vector<std::tuple<glm::vec3, int32_t, glm::vec2, Params, int32_t, float, bool>> p;
+    std::vector<std::tuple<glm::vec3, int32_t, glm::vec2, Params, int32_t, float, bool, glm::vec4>>
+        pw;
+    for (int i = 0; i < 2000; ++i) {
+      // Half the cases within eight texels of an edge.
+      const auto coordinate = [&](bool edge) {
+        if (!edge) return rng.next_unit();
+        const double t = 8.0 * rng.next_unit() / 64.0;
+        return rng.next_unit() < 0.5 ? t : 1.0 - t;
+      };
+      const glm::vec3 c(float(coordinate(i % 2 == 0)), float(coordinate(i % 4 == 0)),
+                        depth_at(0.5 + 0.45 * rng.next_unit(), reverse_z));
+      const int layer = i % 3;
+      const Params params = random_params(rng);
+      const float rot = float(kTwoPi * rng.next_unit()), radius = float(12 * rng.next_unit());
+      const glm::vec4 w = windows[size_t(layer)];
+      s.emplace_back(c, layer, radius, 1 + i % 64, rot, texel, reverse_z);
+      sw.emplace_back(c, layer, radius, 1 + i % 64, rot, texel, reverse_z, w);
+      p.emplace_back(c, layer, texel, params, i % 3, rot, reverse_z);
+      pw.emplace_back(c, layer, texel, params, i % 3, rot, reverse_z, w);
+    }
+    PENUMBRA_EXPECT_ALL_NEAR(search.run(s), search_window.run(sw), Tolerance::exact());
+    PENUMBRA_EXPECT_ALL_NEAR(pcss.run(p), pcss_window.run(pw), Tolerance::absolute(2 * tap_bound()));
   }
 }
 

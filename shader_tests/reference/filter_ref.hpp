@@ -35,6 +35,15 @@ struct DepthMap {
     return depth[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
                  static_cast<std::size_t>(x)];
   }
+  // The map as a toroidal image of its size holds it at offset (ox, oy) (pcf.glsl's windowed
+  // lookups): texel (x, y) at ((x + ox) mod width, (y + oy) mod height).
+  DepthMap rolled(int ox, int oy) const {
+    DepthMap m = *this;
+    for (int y = 0; y < height; ++y)
+      for (int x = 0; x < width; ++x)
+        m.depth[static_cast<std::size_t>(((y + oy) % height) * width + (x + ox) % width)] = at(x, y);
+    return m;
+  }
   // The same map mirrored left-right.
   DepthMap mirrored_x() const {
     DepthMap m = *this;

@@ -19,6 +19,12 @@
 //   lies outside this map. The test is on the bits, so no fast-math assumption can drop it. (A
 //   denormal just below 0 may be flushed to -0 by the device and then counts as inside.)
 // - Taps near the map's edge read the edge texels (clamp to edge).
+// - Windowed lookups (the _array functions' `window` overloads): the map is an N x N window of a
+//   toroidal image of the same size, sampled in place with repeat addressing: map texel t is
+//   image texel (t + o) mod N. window = vec4(o, 1, 0), o whole texels in [0, N); window.z = 0 is
+//   the map itself. Each tap's uv is clamped to the edge texels' centres, then moved by o, so a
+//   tap reads what clamp-to-edge addressing of the map would (a bilinear tap at an edge texel's
+//   centre weighs its neighbour by 0).
 
 #ifndef PENUMBRA_PCF_GLSL
 #define PENUMBRA_PCF_GLSL
@@ -44,6 +50,13 @@ bool pcf_coord_in_map(vec3 coord) {
 // filter, so that no input (a zero texel size, say) can turn into a NaN shadow factor.
 float pcf_saturate_or_lit(float v) {
   return penumbra_is_finite(v) ? clamp(v, 0.0, 1.0) : 1.0;
+}
+
+// Returns the uv to sample for map uv through `window` (see the conventions above): uv itself
+// when window.z is 0.
+vec2 pcf_window_uv(vec2 uv, vec4 window, vec2 texel_size) {
+  if (window.z == 0.0) return uv;
+  return clamp(uv, 0.5 * texel_size, 1.0 - 0.5 * texel_size) + window.xy * texel_size;
 }
 
 // Returns the grid radius clamped to [0, kPcfMaxRadius].
@@ -92,8 +105,9 @@ float pcf_grid(sampler2DShadow map, vec3 coord, int radius, vec2 texel_size) {
 }
 
 // Returns the box-grid PCF shadow factor of pcf_grid in layer `layer` of an array map (one
-// cascade per layer).
-float pcf_grid_array(sampler2DArrayShadow map, vec3 coord, int layer, int radius, vec2 texel_size) {
+// cascade per layer), read through `window` (see the conventions above).
+float pcf_grid_array(sampler2DArrayShadow map, vec3 coord, int layer, int radius, vec2 texel_size,
+                     vec4 window) {
   if (!pcf_coord_in_map(coord)) return 1.0;
   int r = pcf_clamp_radius(radius);
   float depth = clamp(coord.z, 0.0, 1.0);
@@ -106,12 +120,17 @@ float pcf_grid_array(sampler2DArrayShadow map, vec3 coord, int layer, int radius
     vec2 ty = pcf_box_pair(j, r, a.y);
     for (int i = 0; i <= r; ++i) {
       vec2 tx = pcf_box_pair(i, r, a.x);
-      vec2 uv = (origin + vec2(tx.x, ty.x)) * texel_size;
+      vec2 uv = pcf_window_uv((origin + vec2(tx.x, ty.x)) * texel_size, window, texel_size);
       sum += tx.y * ty.y * texture(map, vec4(uv, float(layer), depth));
     }
   }
   float n = float(2 * r + 1);
   return pcf_saturate_or_lit(sum / (n * n));
+}
+
+// Returns pcf_grid_array of the map itself.
+float pcf_grid_array(sampler2DArrayShadow map, vec3 coord, int layer, int radius, vec2 texel_size) {
+  return pcf_grid_array(map, coord, layer, radius, texel_size, vec4(0.0));
 }
 
 // Returns radius_texels made safe for tap offsets: negative or non-finite radii count as 0.
@@ -149,9 +168,10 @@ float pcf_poisson(sampler2DShadow map, vec3 coord, int tap_count, float radius_t
   return pcf_saturate_or_lit(sum / float(n));
 }
 
-// Returns the shadow factor of pcf_poisson in layer `layer` of an array map.
+// Returns the shadow factor of pcf_poisson in layer `layer` of an array map, read through
+// `window` (see the conventions above).
 float pcf_poisson_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_count,
-                        float radius_texels, float rotation, vec2 texel_size) {
+                        float radius_texels, float rotation, vec2 texel_size, vec4 window) {
   if (!pcf_coord_in_map(coord)) return 1.0;
   int n = clamp(tap_count, 1, kPcfMaxPoissonTaps);
   float depth = clamp(coord.z, 0.0, 1.0);
@@ -160,9 +180,16 @@ float pcf_poisson_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = coord.xy + pcf_poisson_offset(i, cos_sin, radius, texel_size);
-    sum += texture(map, vec4(uv, float(layer), depth));
+    sum += texture(map, vec4(pcf_window_uv(uv, window, texel_size), float(layer), depth));
   }
   return pcf_saturate_or_lit(sum / float(n));
+}
+
+// Returns pcf_poisson_array of the map itself.
+float pcf_poisson_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_count,
+                        float radius_texels, float rotation, vec2 texel_size) {
+  return pcf_poisson_array(map, coord, layer, tap_count, radius_texels, rotation, texel_size,
+                           vec4(0.0));
 }
 
 // Returns the Vogel-disk PCF shadow factor: the mean of tap_count (clamped to 1..64) bilinear
@@ -185,9 +212,10 @@ float pcf_vogel(sampler2DShadow map, vec3 coord, int tap_count, float radius_tex
   return pcf_saturate_or_lit(sum / float(n));
 }
 
-// Returns the shadow factor of pcf_vogel in layer `layer` of an array map.
+// Returns the shadow factor of pcf_vogel in layer `layer` of an array map, read through
+// `window` (see the conventions above).
 float pcf_vogel_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_count,
-                      float radius_texels, float rotation, vec2 texel_size) {
+                      float radius_texels, float rotation, vec2 texel_size, vec4 window) {
   if (!pcf_coord_in_map(coord)) return 1.0;
   int n = clamp(tap_count, 1, kPcfMaxVogelTaps);
   float depth = clamp(coord.z, 0.0, 1.0);
@@ -196,9 +224,16 @@ float pcf_vogel_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_c
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = coord.xy + vogel_disk_sample(i, n, angle) * radius * texel_size;
-    sum += texture(map, vec4(uv, float(layer), depth));
+    sum += texture(map, vec4(pcf_window_uv(uv, window, texel_size), float(layer), depth));
   }
   return pcf_saturate_or_lit(sum / float(n));
+}
+
+// Returns pcf_vogel_array of the map itself.
+float pcf_vogel_array(sampler2DArrayShadow map, vec3 coord, int layer, int tap_count,
+                      float radius_texels, float rotation, vec2 texel_size) {
+  return pcf_vogel_array(map, coord, layer, tap_count, radius_texels, rotation, texel_size,
+                         vec4(0.0));
 }
 
 #endif  // PENUMBRA_PCF_GLSL

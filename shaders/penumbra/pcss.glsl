@@ -164,11 +164,19 @@ float pcss_fetch_depth(sampler2D depth_map, vec2 uv) {
 // Returns the raw depth of pcss_fetch_depth in layer `layer` of an array map. The layer is
 // clamped to the map's layers, as texture() does for the compare taps of the same map (Vulkan
 // clamps the array coordinate of a sampled lookup, while texelFetch out of range is undefined):
-// PCSS and PCF then read the same layer for any layer argument.
-float pcss_fetch_depth_array(sampler2DArray depth_map, vec2 uv, int layer) {
+// PCSS and PCF then read the same layer for any layer argument. Through `window` (pcf.glsl's
+// windowed lookups) the map's texel t is the image's (t + o) mod N.
+float pcss_fetch_depth_array(sampler2DArray depth_map, vec2 uv, int layer, vec4 window) {
   ivec3 size = textureSize(depth_map, 0);
-  vec2 texel = clamp(floor(uv * vec2(size.xy)), vec2(0.0), vec2(size.xy) - 1.0);
+  vec2 n = vec2(size.xy);
+  vec2 texel = clamp(floor(uv * n), vec2(0.0), n - 1.0);
+  if (window.z != 0.0) texel = mod(texel + window.xy, n);
   return texelFetch(depth_map, ivec3(ivec2(texel), clamp(layer, 0, size.z - 1)), 0).r;
+}
+
+// Returns pcss_fetch_depth_array of the map itself.
+float pcss_fetch_depth_array(sampler2DArray depth_map, vec2 uv, int layer) {
+  return pcss_fetch_depth_array(depth_map, uv, layer, vec4(0.0));
 }
 
 // Returns the uv of blocker-search tap `index` of `count`: a Vogel disk of radius_texels texels.
@@ -211,10 +219,12 @@ void pcss_blocker_search(sampler2D depth_map, vec3 coord, float radius_texels, i
 // A receiver tilted away from the light then does not find its own surface as a blocker across
 // a wide search disk. vec2(0): the flat search of pcss_blocker_search; a non-finite gradient
 // counts as vec2(0). Average depths are the blockers' stored depths, as there.
+// Through `window` (pcf.glsl's windowed lookups).
 void pcss_blocker_search_plane_array(sampler2DArray depth_map, vec3 coord, int layer,
                                      float radius_texels, int tap_count, float rotation,
                                      vec2 texel_size, bool reverse_z, vec2 plane_gradient,
-                                     out float average_depth, out int blocker_count) {
+                                     vec4 window, out float average_depth,
+                                     out int blocker_count) {
   float depth = clamp(coord.z, 0.0, 1.0);
   average_depth = penumbra_is_finite(depth) ? depth : 0.0;
   blocker_count = 0;
@@ -228,7 +238,7 @@ void pcss_blocker_search_plane_array(sampler2DArray depth_map, vec3 coord, int l
   float sum = 0.0;
   for (int i = 0; i < n; ++i) {
     vec2 uv = pcss_search_uv(coord.xy, i, n, radius, angle, texel_size);
-    float stored = pcss_fetch_depth_array(depth_map, uv, layer);
+    float stored = pcss_fetch_depth_array(depth_map, uv, layer, window);
     float plane = depth + receiver_plane_depth_offset(g, uv - coord.xy);
     if (pcss_is_blocker(stored, plane, reverse_z)) {
       sum += stored;
@@ -238,12 +248,32 @@ void pcss_blocker_search_plane_array(sampler2DArray depth_map, vec3 coord, int l
   if (blocker_count > 0) average_depth = sum / float(blocker_count);
 }
 
+// pcss_blocker_search_plane_array of the map itself.
+void pcss_blocker_search_plane_array(sampler2DArray depth_map, vec3 coord, int layer,
+                                     float radius_texels, int tap_count, float rotation,
+                                     vec2 texel_size, bool reverse_z, vec2 plane_gradient,
+                                     out float average_depth, out int blocker_count) {
+  pcss_blocker_search_plane_array(depth_map, coord, layer, radius_texels, tap_count, rotation,
+                                  texel_size, reverse_z, plane_gradient, vec4(0.0), average_depth,
+                                  blocker_count);
+}
+
+// Blocker search of pcss_blocker_search in layer `layer` of an array map, through `window`
+// (pcf.glsl's windowed lookups).
+void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, float radius_texels,
+                               int tap_count, float rotation, vec2 texel_size, bool reverse_z,
+                               vec4 window, out float average_depth, out int blocker_count) {
+  pcss_blocker_search_plane_array(depth_map, coord, layer, radius_texels, tap_count, rotation,
+                                  texel_size, reverse_z, vec2(0.0), window, average_depth,
+                                  blocker_count);
+}
+
 // Blocker search of pcss_blocker_search in layer `layer` of an array map.
 void pcss_blocker_search_array(sampler2DArray depth_map, vec3 coord, int layer, float radius_texels,
                                int tap_count, float rotation, vec2 texel_size, bool reverse_z,
                                out float average_depth, out int blocker_count) {
-  pcss_blocker_search_plane_array(depth_map, coord, layer, radius_texels, tap_count, rotation,
-                                  texel_size, reverse_z, vec2(0.0), average_depth, blocker_count);
+  pcss_blocker_search_array(depth_map, coord, layer, radius_texels, tap_count, rotation,
+                            texel_size, reverse_z, vec4(0.0), average_depth, blocker_count);
 }
 
 // Returns true when a blocker search result needs filtering; false for the early-outs: no
@@ -281,10 +311,10 @@ float pcss_shadow(sampler2DShadow compare_map, sampler2D depth_map, vec3 coord, 
 }
 
 // Returns the PCSS shadow factor of pcss_shadow in layer `layer` of array maps (one cascade per
-// layer; params describe that cascade).
+// layer; params describe that cascade), read through `window` (pcf.glsl's windowed lookups).
 float pcss_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray depth_map, vec3 coord,
                         int layer, vec2 texel_size, PcssParams params, int tier, float rotation,
-                        bool reverse_z) {
+                        bool reverse_z, vec4 window) {
   if (!pcf_coord_in_map(coord)) return 1.0;
   vec3 c = vec3(coord.xy, clamp(coord.z, 0.0, 1.0));
   int search_taps = pcss_search_tap_count(tier);
@@ -294,15 +324,23 @@ float pcss_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray depth_m
   float blocker_depth;
   int blockers;
   pcss_blocker_search_array(depth_map, c, layer, search_radius, search_taps, rotation, texel_size,
-                            reverse_z, blocker_depth, blockers);
+                            reverse_z, window, blocker_depth, blockers);
   if (blockers == 0) return 1.0;
   float filter_radius =
       min(pcss_filter_radius_texels(c.z, blocker_depth, params, reverse_z), search_radius);
   if (!pcss_needs_filter(blockers, search_taps, search_radius, filter_radius)) return 0.0;
   float filtered = pcf_vogel_array(compare_map, c, layer, pcss_filter_tap_count(tier),
-                                   filter_radius, rotation, texel_size);
+                                   filter_radius, rotation, texel_size, window);
   float confidence = pcss_confidence(blockers, search_taps, params.confidence_fraction);
   return pcf_saturate_or_lit(mix(1.0, filtered, confidence));
+}
+
+// Returns pcss_shadow_array of the maps themselves.
+float pcss_shadow_array(sampler2DArrayShadow compare_map, sampler2DArray depth_map, vec3 coord,
+                        int layer, vec2 texel_size, PcssParams params, int tier, float rotation,
+                        bool reverse_z) {
+  return pcss_shadow_array(compare_map, depth_map, coord, layer, texel_size, params, tier,
+                           rotation, reverse_z, vec4(0.0));
 }
 
 #endif  // PENUMBRA_PCSS_GLSL

@@ -86,19 +86,22 @@ struct ShadowLookup2D {
   vec2 duv_dx, duv_dy;
 };
 
+// The filter `mode` of a lookup in the maps, read through `window` (pcf.glsl's windowed
+// lookups) by the compare filters and the directional PCSS; EVSM2's moments and the perspective
+// PCSS read the maps themselves (window.z must be 0 with them).
 float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compare_map,
-                             sampler2DArray depth_map, sampler2DArray moments,
-                             ShadowLookup2D q) {
+                             sampler2DArray depth_map, sampler2DArray moments, ShadowLookup2D q,
+                             vec4 window) {
   if (filter_allowed(allowed, kFilterHard) && mode == kFilterHard)
-    return pcf_grid_array(compare_map, q.coord, q.layer, 0, q.texel);
+    return pcf_grid_array(compare_map, q.coord, q.layer, 0, q.texel, window);
   if (filter_allowed(allowed, kFilterPcf) && mode == kFilterPcf)
-    return pcf_grid_array(compare_map, q.coord, q.layer, q.pcf_radius, q.texel);
+    return pcf_grid_array(compare_map, q.coord, q.layer, q.pcf_radius, q.texel, window);
   if (filter_allowed(allowed, kFilterPoisson) && mode == kFilterPoisson)
     return pcf_poisson_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
-                             q.texel);
+                             q.texel, window);
   if (filter_allowed(allowed, kFilterVogel) && mode == kFilterVogel)
     return pcf_vogel_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
-                           q.texel);
+                           q.texel, window);
   if (filter_allowed(allowed, kFilterEvsm2) && mode == kFilterEvsm2) {
     vec3 c = vec3(q.coord.xy, q.moments_depth);
     if (q.footprint)
@@ -114,9 +117,16 @@ float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compa
                                     q.receiver_distance, q.pcss_local, q.pcss_tier, q.rotation,
                                     q.reverse_z, q.plane_gradient);
     return pcss_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel, q.pcss,
-                             q.pcss_tier, q.rotation, q.reverse_z);
+                             q.pcss_tier, q.rotation, q.reverse_z, window);
   }
   return 1.0;
+}
+
+// The filter `mode` of a lookup in the maps themselves.
+float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compare_map,
+                             sampler2DArray depth_map, sampler2DArray moments,
+                             ShadowLookup2D q) {
+  return shadow_filter_2d_array(mode, allowed, compare_map, depth_map, moments, q, vec4(0.0));
 }
 
 // What a lookup in a cube array needs besides the maps.
