@@ -35,6 +35,7 @@ struct ShadowGpu {
   uvec4 counts;    // x count, y depth convention, z resolution, w layout
   uvec4 modes;     // x cascade selection (0 view distance, 1 containment)
   uvec4 redrawn[PENUMBRA_MAX_CASCADES];  // x kRedrawn* bits, yz move in texels (debug view)
+  vec4 window[PENUMBRA_MAX_CASCADES];    // the windowed lookups' window (pcf.glsl), z 0: none
 };
 
 // ShadowGpu.redrawn.x, SpotShadowGpu.info.z, PointShadowGpu.info.w (4 bits a face).

@@ -114,6 +114,13 @@ PcssLocalParams local_params(float radius, float texel_at_unit, float near, floa
   return p;
 }
 
+// The debug view `redrawn`: what the shadow-map cache drew this frame of a map (or cube face)
+// with bits b (shadow_types.glsl): 3 drawn whole, 1 restored with moving casters drawn over, 0
+// kept (the sun's codes, shadow_resolve.comp; a spot or point map is never scrolled).
+float redrawn_code(uint b) {
+  return (b & PENUMBRA_REDRAWN_WHOLE) != 0u ? 3.0 : (b & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
+}
+
 #if PENUMBRA_SPOT_SHADOWS > 0
 float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, float rotation,
                       inout vec4 debug) {
@@ -181,13 +188,6 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
 #endif
 
 #if PENUMBRA_POINT_SHADOWS > 0
-// The debug view `redrawn`: what the shadow-map cache drew this frame of a map (or cube face)
-// with bits b (shadow_types.glsl): 3 drawn whole, 1 restored with moving casters drawn over, 0
-// kept (the sun's codes, shadow_resolve.comp; a spot or point map is never scrolled).
-float redrawn_code(uint b) {
-  return (b & PENUMBRA_REDRAWN_WHOLE) != 0u ? 3.0 : (b & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
-}
-
 // The cube face a light-to-receiver direction selects (+X, -X, +Y, -Y, +Z, -Z: 0..5).
 float cube_face_of(vec3 v) {
   vec3 a = abs(v);

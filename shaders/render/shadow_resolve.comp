@@ -106,7 +106,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
     float radius = pcss_search_radius_texels(clamp(coord.z, 0.0, 1.0), params, reverse_z);
     pcss_blocker_search_array(shadow_depth, coord, c, radius,
                               pcss_search_tap_count(int(frame.filter_params.y)), rotation, texel,
-                              reverse_z, average, blockers);
+                              reverse_z, shadow.window[c], average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
   // The filter (shadow_filter.glsl). Constant width in world units turns PCF into the Poisson
@@ -130,8 +130,10 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
     q.duv_dx = world_to_shadow_coord(cascade.view_proj, biased + dpdx).xy - coord.xy;
     q.duv_dy = world_to_shadow_coord(cascade.view_proj, biased + dpdy).xy - coord.xy;
   }
+  // The cascade's window on the image sampled: the renderer's toroidal grid read in place, or
+  // the map itself (window.z 0).
   return shadow_filter_2d_array(constant_width ? kFilterPoisson : filter_mode, sun_filters(),
-                                shadow_compare, shadow_depth, SUN_MOMENTS, q);
+                                shadow_compare, shadow_depth, SUN_MOMENTS, q, shadow.window[c]);
 }
 
 // The finest cascade whose map holds the receiver with the filter's reach; count when none.

@@ -5,6 +5,7 @@
 // temporal -> contact shadows -> forward -> tonemap -> copy to the readback buffer.
 
 #include <algorithm>
+#include <cstdlib>
 #include <cstring>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/packing.hpp>
@@ -111,6 +112,28 @@ struct Renderer::Impl {
     res.specialize = o.specialize;
     res.sun_window = o.sun_window;
     res.scroll_cascades = o.scroll_cascades;
+    // PENUMBRA_SUN_WINDOW (copy, draw, in_place) and PENUMBRA_SCROLL_CASCADES (on, off) pick
+    // the sun's route where the options leave it automatic: to measure or look at another
+    // device's route (docs/performance.md).
+    using SunWindow = RendererOptions::SunWindow;
+    using Scroll = RendererOptions::Scroll;
+    if (const char* e = std::getenv("PENUMBRA_SUN_WINDOW");
+        e && res.sun_window == SunWindow::automatic) {
+      const std::string v = e;
+      if (v == "copy") res.sun_window = SunWindow::copy;
+      else if (v == "draw") res.sun_window = SunWindow::draw;
+      else if (v == "in_place") res.sun_window = SunWindow::in_place;
+      else if (!v.empty() && v != "automatic")
+        throw Error("PENUMBRA_SUN_WINDOW=" + v + ": expected copy, draw, in_place or automatic");
+    }
+    if (const char* e = std::getenv("PENUMBRA_SCROLL_CASCADES");
+        e && res.scroll_cascades == Scroll::automatic) {
+      const std::string v = e;
+      if (v == "on") res.scroll_cascades = Scroll::on;
+      else if (v == "off") res.scroll_cascades = Scroll::off;
+      else if (!v.empty() && v != "automatic")
+        throw Error("PENUMBRA_SCROLL_CASCADES=" + v + ": expected on, off or automatic");
+    }
   }
 
   // The temporal history (shadows.temporal): the last frame's camera, and what resets it.
@@ -406,8 +429,14 @@ std::vector<float> Renderer::read_sun_shadow_map(uint32_t cascade) {
   const auto bytes = impl_->shadow_maps->sun_map.download();
   const size_t texels =
       size_t{impl_->shadow_maps->sun_map.desc().width} * impl_->shadow_maps->sun_map.desc().height;
-  std::vector<float> out(texels);
-  std::memcpy(out.data(), bytes.data() + cascade * texels * 4, texels * 4);
+  std::vector<float> layer(texels), out(texels);
+  std::memcpy(layer.data(), bytes.data() + cascade * texels * 4, texels * 4);
+  // Read in place, sun_map is the cascades' toroidal grid: map texel t at (t + offset) mod n.
+  const glm::ivec2 o = impl_->shadow_maps->sun_offset(cascade);
+  const uint32_t n = impl_->shadow_maps->sun_map.desc().width;
+  for (uint32_t y = 0; y < n; ++y)
+    for (uint32_t x = 0; x < n; ++x)
+      out[size_t(y) * n + x] = layer[size_t((y + uint32_t(o.y)) % n) * n + (x + uint32_t(o.x)) % n];
   return out;
 }
 

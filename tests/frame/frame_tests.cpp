@@ -262,7 +262,7 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     std::vector<std::string> steps;
     for (const auto& g : b.graph) steps.push_back(g.substr(0, g.find(':')));
     // A CPU device scrolls the cascades through their grid (and copies it into the map); a GPU
-    // draws a cascade that moved whole into its map.
+    // scrolls them in the map itself, which the resolves read in place.
     std::vector<std::string> sun{"sun-shadow"};
     if (ctx().info().is_cpu) sun = {"sun-shadow-sync", "sun-shadow-grid", "sun-shadow-copy",
                                     "sun-shadow"};

@@ -60,6 +60,13 @@ render::RendererOptions scrolling() {
   return o;
 }
 
+// Cascades read in place from their toroidal grid (a GPU's default where it can).
+render::RendererOptions in_place() {
+  render::RendererOptions o = scrolling();
+  o.sun_window = render::RendererOptions::SunWindow::in_place;
+  return o;
+}
+
 // An event applied to both renderers before frame k is rendered.
 using Event = std::function<void(render::Renderer&)>;
 
@@ -197,6 +204,72 @@ TEST_F(ShadowCache, WithoutScrollingAMovedCascadeIsDrawnWhole) {
         break;
       }
   EXPECT_LT(differ, a.size() / 4 / 200) << differ << " pixels differ";
+}
+
+// Read in place: the resolves sample the toroidal grid through each cascade's window, and no
+// map is written from it. Cache on and off, the same grid and image at every frame.
+TEST_F(ShadowCache, ReadInPlaceAWalkARefitAReloadAndAParameterChangeNoPixel) {
+  scene::Scene s = filled("default");
+  s.camera.move = {0.6f, 0.0f, -0.4f};
+  s.camera.move_frames = 4;
+  const Totals t = expect_identical(
+      s, 9,
+      {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
+       {6, [](render::Renderer& r) { reload(r, "shadow_depth.vert"); }},
+       {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}},
+      in_place());
+  EXPECT_GT(t.scrolled, 0u);
+  EXPECT_LT(t.drawn, t.layers);
+  render::Renderer r(ctx(), s, in_place());
+  const std::string report = r.built().to_string();
+  EXPECT_THAT(report, ::testing::HasSubstr("read in place"));
+  EXPECT_THAT(report, ::testing::Not(::testing::HasSubstr("sun-shadow-grid")));
+  EXPECT_FALSE(r.built().has_pipeline("sun-shadow-window"));
+}
+
+// Read in place or from the map the grid's window is copied into: the same cascades texel for
+// texel (read_sun_shadow_map unrolls the grid), and the same shadows: the windowed lookups read
+// what the map gives, their taps' weights quantised apart (pcf_tests' bound: 2 * 2^-8 a tap).
+TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameShadows) {
+  for (const char* name : {"default", "grazing"}) {
+    SCOPED_TRACE(name);
+    scene::Scene s = small(name);
+    s.camera.move = {1.5f, 0.0f, -1.0f};
+    s.camera.move_frames = 6;
+    render::RendererOptions copy = scrolling();
+    copy.sun_window = render::RendererOptions::SunWindow::copy;
+    render::Renderer a(ctx(), s, copy), b(ctx(), s, in_place());
+    for (uint32_t k = 0; k < 5; ++k) {
+      SCOPED_TRACE("frame " + std::to_string(k));
+      a.render(k);
+      b.render(k);
+      for (uint32_t c = 0; c < s.shadows.cascades; ++c)
+        EXPECT_TRUE(a.read_sun_shadow_map(c) == b.read_sun_shadow_map(c)) << "cascade " << c;
+      const auto ia = a.read_shadow_info(), ib = b.read_shadow_info();
+      ASSERT_EQ(ia.size(), ib.size());
+      double worst = 0.0;
+      size_t cascade_differs = 0;
+      for (size_t i = 0; i < ia.size(); i += 4) {
+        worst = std::max(worst, double(std::abs(ia[i] - ib[i])));
+        cascade_differs += ia[i + 1] != ib[i + 1] ? 1 : 0;
+      }
+      EXPECT_LE(worst, 4.0 / 256.0) << "sun visibility";
+      EXPECT_EQ(cascade_differs, 0u);
+    }
+  }
+}
+
+// Moving casters, or EVSM2 moments made from a map, need the map: read in place falls back.
+TEST_F(ShadowCache, ReadInPlaceFallsBackWhereTheMapIsNeeded) {
+  scene::Scene s = small("default");
+  make_move(s, 3, {2.0f, 0.0f, 0.0f}, 3);
+  render::Renderer moving(ctx(), s, in_place());
+  EXPECT_THAT(moving.built().to_string(), ::testing::Not(::testing::HasSubstr("read in place")));
+  scene::Scene e = small("default");
+  scene::set_param(e, "shadows.filter", "evsm2");
+  render::Renderer evsm(ctx(), e, in_place());
+  EXPECT_THAT(evsm.built().to_string(), ::testing::Not(::testing::HasSubstr("read in place")));
+  for (uint32_t k = 0; k < 2; ++k) evsm.render(k);
 }
 
 TEST_F(ShadowCache, AWalkDrawsOnlyWhatTheCascadesNewlyReach) {

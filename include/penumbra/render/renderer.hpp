@@ -33,16 +33,21 @@ struct RendererOptions {
   // the driver compiles only that code (docs/architecture.md). Off: one pipeline each, every
   // filter compiled, the values read from the frame; the images are the same bit for bit.
   bool specialize = true;
-  // How the sun's map is made from its grid each frame (ShadowMapPass): a copy, or a draw that
-  // writes each texel's depth. The same texels either way; `automatic` copies on a CPU device
-  // and draws on a GPU, which copies depth images several times slower than it draws them.
-  enum class SunWindow { automatic, copy, draw };
+  // How the sun's resolves read its cascades (ShadowMapPass): from a map the grid's window is
+  // written into each frame, by a copy or by a draw that writes each texel's depth (the same
+  // texels either way), or from the toroidal grid itself, in place, through a window offset and
+  // repeat addressing (pcf.glsl's windowed lookups: nothing written but what the cascades newly
+  // reach). In place needs a scene without moving casters and a sun filter without EVSM2
+  // moments; elsewhere it falls back to the copy. `automatic`: a CPU device copies (a memcpy);
+  // a GPU reads in place where it can (writing depth that is not a raster's output costs an H100
+  // as much as drawing the casters), and otherwise does not scroll.
+  enum class SunWindow { automatic, copy, draw, in_place };
   SunWindow sun_window = SunWindow::automatic;
   // Whether a sun cascade that moved by whole texels keeps what it holds and is drawn only where
   // it newly reaches (through the grid image), or is drawn whole into its map again. Scrolling
-  // needs the cascade's window written into the map each frame it moved: a memcpy on a CPU
-  // device, but on an H100 as dear as drawing the casters (docs/performance.md), so `automatic`
-  // scrolls on a CPU device only. The images are the same with the cache on and off either way.
+  // needs the cascade's window written into the map each frame it moved, unless it is read in
+  // place: `automatic` scrolls on a CPU device, and on a GPU where the sun is read in place. The
+  // images are the same with the cache on and off either way.
   enum class Scroll { automatic, on, off };
   Scroll scroll_cascades = Scroll::automatic;
 };

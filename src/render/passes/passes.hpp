@@ -225,6 +225,13 @@ class ShadowMapPass final : public Pass {
   gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
   gpu::Buffer sun_ubo, spot_ubo, point_ubo;    // the lookups' matrices (camera-relative)
   uint64_t cache_bytes = 0;                    // the still copies' memory
+  // The sun's samplers for the resolves: the renderer's (clamp to edge), or repeat ones when the
+  // resolves read the cascades in place (sun_map is then their toroidal grid).
+  VkSampler sun_compare = VK_NULL_HANDLE, sun_raw = VK_NULL_HANDLE;
+  bool sun_in_place = false;
+  // Where cascade c's map lies on sun_map this frame (its window offset, whole texels in
+  // [0, resolution)); 0 unless read in place.
+  glm::ivec2 sun_offset(uint32_t c) const;
   struct View;  // one light kind's maps (shadow_view.hpp)
 
  private:
@@ -232,6 +239,7 @@ class ShadowMapPass final : public Pass {
   bool cache_ = true;
   uint64_t generation_ = 0;
   ShadowCacheStats stats_;
+  gpu::Sampler repeat_compare_, repeat_raw_;
 };
 
 class PrepassPass final : public Pass {

@@ -221,21 +221,45 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     const gpu::ImageDesc& d = v.target->desc();
     const uint64_t before = r.image_bytes;
     using Scroll = RendererOptions::Scroll;
+    using SunWindow = RendererOptions::SunWindow;
+    const bool cpu = r.ctx.info().is_cpu;
+    // Read in place: no moving casters to draw over the grid, no moments made from a map.
+    v.in_place = v.grid() && !moving && !r.req.sun_moments &&
+                 (r.sun_window == SunWindow::in_place ||
+                  (r.sun_window == SunWindow::automatic && !cpu));
     v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
-                            (r.scroll_cascades == Scroll::automatic && r.ctx.info().is_cpu));
+                            (r.scroll_cascades == Scroll::automatic && (cpu || v.in_place)));
     // Moving casters over the still ones: the sun's grid holds those when it scrolls; without it
     // the sun draws every caster whole when any changed.
     v.moving = moving && (v.grid() ? v.scroll : cache_);
-    if (v.scroll) {
+    if (v.scroll && !v.in_place) {
       v.base_name = "sun-shadow-grid";
       v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
                                   kMapUsage, 1,
                                   "shadows.resolution = " + std::to_string(d.width) +
                                       " (the cascades' grid, drawn into sun-shadow-map)");
     }
-    using SunWindow = RendererOptions::SunWindow;
-    v.window_by_draw = v.scroll && (r.sun_window == SunWindow::draw ||
-                                    (r.sun_window == SunWindow::automatic && !r.ctx.info().is_cpu));
+    v.window_by_draw = v.scroll && !v.in_place &&
+                       (r.sun_window == SunWindow::draw ||
+                        (r.sun_window == SunWindow::automatic && !cpu));
+    if (v.grid()) {
+      sun_in_place = v.in_place;
+      sun_compare = r.shadow_compare.handle();
+      sun_raw = r.raw_depth.handle();
+    }
+    if (v.in_place) {
+      gpu::SamplerDesc cmp;
+      cmp.filter = VK_FILTER_LINEAR;
+      cmp.compare = true;
+      cmp.compare_op = r.depth_test(false);
+      cmp.address = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+      repeat_compare_ = gpu::Sampler(r.ctx, cmp);
+      gpu::SamplerDesc raw;
+      raw.address = VK_SAMPLER_ADDRESS_MODE_REPEAT;
+      repeat_raw_ = gpu::Sampler(r.ctx, raw);
+      sun_compare = repeat_compare_.handle();
+      sun_raw = repeat_raw_.handle();
+    }
     if (v.window_by_draw) {
       v.window_layout = std::make_unique<gpu::PipelineLayout>(
           r.ctx,
@@ -277,7 +301,9 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                          return v.scroll;
                        })
                            ? ", cascades only where they newly reach"
-                           : "")
+                           : "") +
+                      (sun_in_place ? ", read in place from sun-shadow-map as their toroidal grid"
+                                    : "")
                 : std::string("off (shadows.cache = false): every layer drawn every frame")) +
         (moving ? "; moving casters drawn over the still ones" : "") + " (" + mib +
         " beside the maps)");
@@ -288,6 +314,15 @@ ShadowMapPass::~ShadowMapPass() = default;
 
 void ShadowMapPass::invalidate() {
   ++generation_;
+}
+
+glm::ivec2 ShadowMapPass::sun_offset(uint32_t c) const {
+  for (const View& v : views_)
+    if (v.in_place && c < v.window.size()) {
+      const int n = int(v.target->desc().width);
+      return ((v.window[c] % n) + n) % n;
+    }
+  return glm::ivec2(0);
 }
 
 }  // namespace penumbra::render::passes

@@ -107,7 +107,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
         stats_.texels_drawn +=
             texels - uint64_t(side - std::abs(move.x)) * uint64_t(side - std::abs(move.y));
       }
-      if (v.scroll && !v.moving) {
+      if (v.scroll && !v.moving && !v.in_place) {
         const bool aligned = v.window[l].x % side == 0 && v.window[l].y % side == 0;
         if (plan == View::Base::draw && aligned) {
           v.direct[l] = 1;
@@ -141,8 +141,10 @@ void ShadowMapPass::prepare(FrameResources& r) {
   for (const View& v : views_) {
     if (v.target == &sun_map) {
       shadow::ShadowGpu sun = f.shadow;
-      for (size_t c = 0; c < v.redrawn.size() && c < shadow::kMaxCascades; ++c)
+      for (size_t c = 0; c < v.redrawn.size() && c < shadow::kMaxCascades; ++c) {
         sun.redrawn[c] = v.redrawn[c];
+        if (v.in_place) sun.window[c] = glm::vec4(glm::vec2(sun_offset(uint32_t(c))), 1.0f, 0.0f);
+      }
       sun_ubo.write(std::as_bytes(std::span(&sun, 1)));
     } else if (v.target == &spot_maps) {
       std::vector<shadow::SpotShadowGpu> spots = f.spot_gpu;

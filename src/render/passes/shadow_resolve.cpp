@@ -104,8 +104,8 @@ ShadowResolvePass::ShadowResolvePass(FrameResources& r, ShadowMapPass& maps)
       .buffer(1, maps.sun_ubo.handle(), VK_DESCRIPTOR_TYPE_UNIFORM_BUFFER)
       .combined_image(2, r.depth.view(), r.nearest.handle())
       .combined_image(3, r.normal.view(), r.nearest.handle())
-      .combined_image(4, maps.sun_map.view(), r.shadow_compare.handle())
-      .combined_image(5, maps.sun_map.view(), r.raw_depth.handle())
+      .combined_image(4, maps.sun_map.view(), maps.sun_compare)
+      .combined_image(5, maps.sun_map.view(), maps.sun_raw)
       .storage_image(6, r.info.view())
       .update(r.ctx, compute_.set());
   if (r.req.sun_moments) {

@@ -85,7 +85,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     gpu::Image& base = v.base();
     const std::string base_label = v.base_label();
     const bool separate = v.has_base();
-    if (v.scroll) {
+    if (v.scroll && separate) {
       // A cascade drawn straight into the map and now scrolling: the map (last frame's, laid
       // out as the grid) copied back into the grid first.
       out.push_back({v.name + "-sync",
@@ -110,9 +110,12 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                      },
                      {}});
     }
-    // The base: layers drawn whole, and the strips a cascade newly reaches.
+    // The base: layers drawn whole, and the strips a cascade newly reaches. A map the frame's
+    // only step writes is declared its target, whatever of it the cache keeps (its layout is
+    // kept with its texels: Image::transition).
     Step base_step{separate ? v.name + (v.scroll ? "-grid" : "-still") : v.name,
-                   {{base_label, &base, v.scroll ? Use::depth_modify : Use::depth_target}},
+                   {{base_label, &base,
+                     v.scroll && separate ? Use::depth_modify : Use::depth_target}},
                    {},
                    separate ? std::string() : v.name};
     base_step.record = [&v, &base, draw, wrapped, whole](VkCommandBuffer cmd) {

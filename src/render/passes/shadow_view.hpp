@@ -44,6 +44,9 @@ struct ShadowMapPass::View {
       touches;
   uint32_t viewport = 0;  // the sun: the grid draws' viewport side P; 0: the map's side
   bool scroll = false;    // the sun: cascades scroll through the grid image (Scroll)
+  // The sun: the resolves read the grid in place (SunWindow::in_place): the target is the grid,
+  // there is no map written from it.
+  bool in_place = false;
   // The sun: each cascade's grid start, kept while the rest of its grid (texel size, depth
   // range, light, anchor) stays as it was, so a full draw after such a change starts the grid
   // at the cascade's first texel (one rectangle, not four).
