@@ -223,8 +223,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     using Scroll = RendererOptions::Scroll;
     using SunWindow = RendererOptions::SunWindow;
     const bool cpu = r.ctx.info().is_cpu;
-    // Read in place: no moving casters to draw over the grid, no moments made from a map.
-    v.in_place = v.grid() && !moving && !r.req.sun_moments &&
+    // Read in place: no moments made from a map.
+    v.in_place = v.grid() && !r.req.sun_moments &&
                  (r.sun_window == SunWindow::in_place ||
                   (r.sun_window == SunWindow::automatic && !cpu));
     v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
@@ -232,12 +232,15 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     // Moving casters over the still ones: the sun's grid holds those when it scrolls; without it
     // the sun draws every caster whole when any changed.
     v.moving = moving && (v.grid() ? v.scroll : cache_);
-    if (v.scroll && !v.in_place) {
+    // The grid: the cascades, written into the map; read in place, the still casters, which
+    // the map (in the grid's layout) adds the moving ones to.
+    if (v.scroll && (!v.in_place || v.moving)) {
       v.base_name = "sun-shadow-grid";
-      v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
-                                  kMapUsage, 1,
-                                  "shadows.resolution = " + std::to_string(d.width) +
-                                      " (the cascades' grid, drawn into sun-shadow-map)");
+      v.base_image = r.make_image(
+          v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers, kMapUsage, 1,
+          "shadows.resolution = " + std::to_string(d.width) +
+              (v.in_place ? " (the cascades' still casters; sun-shadow-map adds the moving ones)"
+                          : " (the cascades' grid, drawn into sun-shadow-map)"));
     }
     v.window_by_draw = v.scroll && !v.in_place &&
                        (r.sun_window == SunWindow::draw ||

@@ -64,7 +64,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
       common.bytes(packed.bytes.data() + offset, size);
       common.add(!v.draws || v.draws(f, l));
       Hash base = common, moving = common;
-      moving.add(v.window[l]);
+      if (!v.in_place) moving.add(v.window[l]);  // in place the map keeps the grid's layout
       bool any_moving = false;
       const std::vector<glm::mat4>& models = v.models[v.slot(l)];
       for (size_t i = 0; i < f.draws.size(); ++i) {
@@ -127,10 +127,17 @@ void ShadowMapPass::prepare(FrameResources& r) {
       if (!v.has_base()) continue;
       Hash full = moving;
       full.add(base.h);
-      const bool changed = full.h != v.map_key[l] || plan != View::Base::keep;
+      // In place a scroll alone needs only its strips copied across; moving casters in a
+      // scrolled layer need it restored and drawn again (they may reach into the strips).
+      const bool changed =
+          full.h != v.map_key[l] ||
+          (v.in_place ? plan == View::Base::draw || (plan == View::Base::strips && any_moving)
+                      : plan != View::Base::keep);
       v.map_key[l] = full.h;
-      v.restore[l] = !cache_ || changed ? 1 : 0;
-      if (v.restore[l] && any_moving) {
+      v.restore[l] = !cache_ || changed ? View::kRestoreWhole
+                     : v.in_place && plan == View::Base::strips ? View::kRestoreStrips
+                                                                : 0;
+      if (v.restore[l] == View::kRestoreWhole && any_moving) {
         v.redrawn[l].x |= shadow::kRedrawnMoving;
         ++stats_.moving_drawn;
         stats_.texels_drawn += texels;

@@ -182,12 +182,22 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                        for (uint32_t l = 0; l < v.restore.size(); ++l) {
                          if (!v.restore[l]) continue;
                          const glm::ivec2 w = v.grid() ? v.window[l] : glm::ivec2(0);
-                         for (const Area& a : wrapped(w, w + glm::ivec2(n))) {
+                         // Read in place, the map keeps the grid's layout: the window whole,
+                         // or the strips the grid newly drew, each where it lies.
+                         std::vector<Area> areas = wrapped(w, w + glm::ivec2(n));
+                         if (v.restore[l] == View::kRestoreStrips) {
+                           areas.clear();
+                           for (const glm::ivec4& s : v.strips[l])
+                             for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))
+                               areas.push_back(a);
+                         }
+                         for (const Area& a : areas) {
                            VkImageCopy c{};
                            c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
                            c.dstSubresource = c.srcSubresource;
                            c.srcOffset = {a.rect.offset.x, a.rect.offset.y, 0};
-                           c.dstOffset = {a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
+                           c.dstOffset = v.in_place ? c.srcOffset
+                                                    : VkOffset3D{a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
                            c.extent = {a.rect.extent.width, a.rect.extent.height, 1};
                            regions.push_back(c);
                          }
@@ -210,9 +220,12 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     }
     if (!v.moving) continue;
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
-    step.record = [&v, draw, whole](VkCommandBuffer cmd) {
+    step.record = [&v, draw, whole, wrapped](VkCommandBuffer cmd) {
+      const int n = int(v.target->desc().width);
       for (uint32_t l = 0; l < v.restore.size(); ++l)
-        if (v.restore[l]) draw(cmd, *v.target, l, Casters::moving, whole(l), false);
+        if (v.restore[l] == View::kRestoreWhole)
+          draw(cmd, *v.target, l, Casters::moving,
+               v.in_place ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), false);
     };
     out.push_back(std::move(step));
   }

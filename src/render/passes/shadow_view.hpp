@@ -73,7 +73,10 @@ struct ShadowMapPass::View {
   enum class Base : uint8_t { keep, draw, strips };
   std::vector<Base> base_plan;
   std::vector<std::vector<glm::ivec4>> strips;  // grid rectangles (x0, y0, x1, y1) newly reached
-  std::vector<uint8_t> restore;  // the map copied from the base (and the moving drawn over)
+  // The map copied from the base (and the moving drawn over): whole, or (read in place, where
+  // the map keeps the grid's layout) only the strips the grid newly drew.
+  static constexpr uint8_t kRestoreWhole = 1, kRestoreStrips = 2;
+  std::vector<uint8_t> restore;
   // The sun without moving casters: a cascade drawn whole while its window starts on a whole
   // map of the grid (w mod N = 0, as after every new grid) is drawn straight into the map, whose
   // layout is then the grid's (`direct`); the grid layer is left stale (`in_map`) until the
