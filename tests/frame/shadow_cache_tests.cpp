@@ -291,6 +291,63 @@ TEST_F(ShadowCache, ReadInPlaceMovingCastersAndAWalkChangeNoPixel) {
   EXPECT_GT(f.scrolled, f.moving);
 }
 
+// Read in place, a moving caster is drawn again only in the rectangle where it was and is (the
+// rest of each cascade kept, the old shadow cleared from the grid), also while the camera walks.
+TEST_F(ShadowCache, ReadInPlaceAMovingCasterIsRedrawnOnlyWhereItWasAndIs) {
+  for (const float walk : {0.0f, 0.3f}) {
+    SCOPED_TRACE("walk " + std::to_string(walk));
+    scene::Scene s = filled("default");
+    make_move(s, 3, {3.0f, 0.0f, 0.0f}, 3);  // a metre a frame: the old and new balls apart
+    // A box sliding unturned: its bounds are its corners, so its rectangle is tight.
+    make_move(s, 2, {0.7f, 0.0f, 1.3f}, 5);
+    s.camera.move = {walk, 0.0f, -walk};
+    s.camera.move_frames = 3;
+    s.shadows.temporal = false;
+    scene::Scene off = s;
+    off.shadows.cache = false;
+    const Totals t = expect_identical(s, 7, {}, in_place());
+    EXPECT_GT(t.moving, 0u);
+    // Measured apart: the texels the cache drew after the first frame, against whole layers.
+    render::Renderer r(ctx(), s, in_place());
+    uint64_t texels = 0, whole = 0;
+    for (uint32_t k = 0; k < 7; ++k) {
+      r.render(k);
+      if (k == 0) continue;
+      texels += r.shadow_cache_stats().texels_drawn;
+      whole += uint64_t(r.shadow_cache_stats().layers) * s.shadows.resolution * s.shadows.resolution;
+    }
+    EXPECT_LT(texels, whole / 4) << texels << " of " << whole;
+  }
+}
+
+// A moving caster that holds still while the cascades scroll across it (the frame index held,
+// the camera walked by hand): where a strip newly reaches it, it is drawn there again.
+TEST_F(ShadowCache, ReadInPlaceACasterTheCascadesScrollAcrossIsDrawnIntoTheirStrips) {
+  for (const float way : {1.0f, -1.0f}) {
+    SCOPED_TRACE("way " + std::to_string(way));
+    scene::Scene s = filled("default");
+    make_move(s, 3, {3.0f, 0.0f, 0.0f}, 3);
+    s.shadows.temporal = false;
+    // Cascades a few metres across, so their edges pass over the ball as the camera walks.
+    scene::set_param(s, "shadows.max_distance", "6");
+    scene::Scene off_scene = s;
+    off_scene.shadows.cache = false;
+    render::Renderer on(ctx(), s, in_place()), off(ctx(), off_scene, in_place());
+    for (int step = 0; step < 40; ++step) {
+      SCOPED_TRACE("step " + std::to_string(step));
+      for (render::Renderer* r : {&on, &off}) {
+        r->scene().camera.position += way * glm::vec3(-0.15f, 0.0f, 0.1f);
+        r->scene().camera.target += way * glm::vec3(-0.15f, 0.0f, 0.1f);
+        r->render(1);
+      }
+      const auto a = on.read_shadow_maps(), b = off.read_shadow_maps();
+      ASSERT_EQ(a.size(), b.size());
+      for (size_t m = 0; m < a.size(); ++m) EXPECT_TRUE(a[m] == b[m]) << where(a[m], b[m]);
+      if (HasFailure()) break;
+    }
+  }
+}
+
 // Read in place or through the map, with moving casters: the same cascades, to the depths'
 // last bits. The two routes draw the moving casters at different window positions (the map's,
 // the grid's), and the rasterizer interpolates depth from the window position: the last ULPs

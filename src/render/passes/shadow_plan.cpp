@@ -8,6 +8,21 @@ namespace penumbra::render::passes {
 
 namespace {
 
+// The smallest rectangle (x0, y0, x1, y1) holding both (an empty one, x0 >= x1 or y0 >= y1,
+// holds nothing), and the common part of two.
+glm::ivec4 unite(glm::ivec4 a, glm::ivec4 b) {
+  const bool a_empty = a.x >= a.z || a.y >= a.w, b_empty = b.x >= b.z || b.y >= b.w;
+  if (a_empty) return b;
+  if (b_empty) return a;
+  return glm::ivec4(glm::min(glm::ivec2(a), glm::ivec2(b)),
+                    glm::max(glm::ivec2(a.z, a.w), glm::ivec2(b.z, b.w)));
+}
+glm::ivec4 intersect(glm::ivec4 a, glm::ivec4 b) {
+  const glm::ivec2 lo = glm::max(glm::ivec2(a), glm::ivec2(b));
+  const glm::ivec2 hi = glm::max(lo, glm::min(glm::ivec2(a.z, a.w), glm::ivec2(b.z, b.w)));
+  return glm::ivec4(lo, hi);
+}
+
 // The grid rectangles (x0, y0, x1, y1) a window [to, to + n) covers that [from, from + n) did not.
 std::vector<glm::ivec4> newly_covered(glm::ivec2 from, glm::ivec2 to, int n) {
   std::vector<glm::ivec4> out;
@@ -53,6 +68,8 @@ void ShadowMapPass::prepare(FrameResources& r) {
     v.sync.assign(layers, 0);
     v.in_map.resize(layers, 0);
     v.redrawn.assign(layers, glm::uvec4(0));
+    v.dirty.assign(layers, glm::ivec4(0));
+    v.moving_rect.resize(layers, glm::ivec4(0));
     stats_.layers += layers;
     for (uint32_t l = 0; l < layers; ++l) {
       // The base's key: what its texels depend on besides the window: the grid or matrices, the
@@ -66,6 +83,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
       Hash base = common, moving = common;
       if (!v.in_place) moving.add(v.window[l]);  // in place the map keeps the grid's layout
       bool any_moving = false;
+      glm::ivec4 moving_rect(v.window[l], v.window[l]);  // read in place: where they reach
       const std::vector<glm::mat4>& models = v.models[v.slot(l)];
       for (size_t i = 0; i < f.draws.size(); ++i) {
         const Draw& d = f.draws[i];
@@ -76,6 +94,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
             !v.touches(f, l, v.window[l], v.window[l] + glm::ivec2(side), bounds[i]))
           continue;
         any_moving = any_moving || moves;
+        if (moves && v.in_place) moving_rect = unite(moving_rect, v.grid_rect(f, l, bounds[i]));
         Hash& h = moves ? moving : base;
         h.add(i);
         h.add(models[i]);
@@ -127,6 +146,36 @@ void ShadowMapPass::prepare(FrameResources& r) {
       if (!v.has_base()) continue;
       Hash full = moving;
       full.add(base.h);
+      if (v.in_place) {
+        // The map keeps the grid's layout: whatever of it changed is copied across where it
+        // lies, the strips the grid newly drew and the rectangle where moving casters were (in
+        // what is still the window) or are, and the moving casters are drawn there again.
+        const glm::ivec4 window(v.window[l], v.window[l] + glm::ivec2(side));
+        const glm::ivec4 was = intersect(v.moving_rect[l], window);
+        v.moving_rect[l] = moving_rect;
+        uint8_t restore = 0;
+        if (!cache_ || plan == View::Base::draw) {
+          restore = View::kRestoreWhole;
+        } else {
+          if (plan == View::Base::strips) restore |= View::kRestoreStrips;
+          if (full.h != v.map_key[l] || (plan == View::Base::strips && any_moving)) {
+            v.dirty[l] = unite(was, moving_rect);
+            if (v.dirty[l].x < v.dirty[l].z && v.dirty[l].y < v.dirty[l].w)
+              restore |= View::kRestoreRect;
+          }
+        }
+        v.map_key[l] = full.h;
+        v.restore[l] = restore;
+        if (any_moving && (restore & (View::kRestoreWhole | View::kRestoreRect))) {
+          v.redrawn[l].x |= shadow::kRedrawnMoving;
+          ++stats_.moving_drawn;
+          const glm::ivec4 d = v.dirty[l];
+          stats_.texels_drawn += restore & View::kRestoreWhole
+                                     ? texels
+                                     : uint64_t(d.z - d.x) * uint64_t(d.w - d.y);
+        }
+        continue;
+      }
       // In place a scroll alone needs only its strips copied across; moving casters in a
       // scrolled layer need it restored and drawn again (they may reach into the strips).
       const bool changed =

@@ -185,9 +185,12 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                          // Read in place, the map keeps the grid's layout: the window whole,
                          // or the strips the grid newly drew, each where it lies.
                          std::vector<Area> areas = wrapped(w, w + glm::ivec2(n));
-                         if (v.restore[l] == View::kRestoreStrips) {
+                         if (!(v.restore[l] & View::kRestoreWhole)) {
+                           std::vector<glm::ivec4> rects;
+                           if (v.restore[l] & View::kRestoreStrips) rects = v.strips[l];
+                           if (v.restore[l] & View::kRestoreRect) rects.push_back(v.dirty[l]);
                            areas.clear();
-                           for (const glm::ivec4& s : v.strips[l])
+                           for (const glm::ivec4& s : rects)
                              for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))
                                areas.push_back(a);
                          }
@@ -222,10 +225,15 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
     step.record = [&v, draw, whole, wrapped](VkCommandBuffer cmd) {
       const int n = int(v.target->desc().width);
-      for (uint32_t l = 0; l < v.restore.size(); ++l)
-        if (v.restore[l] == View::kRestoreWhole)
+      for (uint32_t l = 0; l < v.restore.size(); ++l) {
+        const glm::ivec4 d = v.dirty.empty() ? glm::ivec4(0) : v.dirty[l];
+        if (v.restore[l] & View::kRestoreWhole)
           draw(cmd, *v.target, l, Casters::moving,
                v.in_place ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), false);
+        else if (v.restore[l] & View::kRestoreRect)
+          draw(cmd, *v.target, l, Casters::moving, wrapped(glm::ivec2(d), glm::ivec2(d.z, d.w)),
+               false);
+      }
     };
     out.push_back(std::move(step));
   }

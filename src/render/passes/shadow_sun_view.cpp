@@ -97,6 +97,31 @@ void configure_sun_view(FrameResources& r, ShadowMapPass::View& v, gpu::Image& m
     const glm::dvec2 to = glm::dvec2(k.box_min) + (glm::dvec2(hi_texel) - w + 2.0) * t;
     return hi.x >= from.x && lo.x <= to.x && hi.y >= from.y && lo.y <= to.y;
   };
+  // The grid texels (x0, y0, x1, y1) bounds b can be drawn into in cascade c: its square across
+  // the light in whole texels, grown by two, within the cascade's window (empty: x0 >= x1).
+  v.grid_rect = [&v](const PackedFrame& f, uint32_t c, const scene::Bounds& b) {
+    const glm::ivec2 w = v.window.at(c);
+    const int side = int(v.target->desc().width);
+    if (b.empty()) return glm::ivec4(w, w);
+    const shadow::Cascade& k = f.cascades.cascades[c];
+    const shadow::Basis& basis = f.cascades.light_basis;
+    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+    for (int i = 0; i < 8; ++i) {
+      const glm::dvec3 p((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y,
+                         (i & 4) ? b.max.z : b.min.z);
+      const glm::dvec2 q(glm::dot(basis.x, p), glm::dot(basis.y, p));
+      lo = glm::min(lo, q);
+      hi = glm::max(hi, q);
+    }
+    const double t = k.texel_world_size;
+    const glm::dvec2 box(k.box_min);
+    const glm::dvec2 limit{double(side)};
+    // Texels of the window, as doubles first: a caster far outside does not overflow an int.
+    const glm::dvec2 from = glm::clamp(glm::floor((lo - box) / t) - 2.0, glm::dvec2(0.0), limit);
+    const glm::dvec2 to = glm::clamp(glm::floor((hi - box) / t) + 3.0, glm::dvec2(0.0), limit);
+    const glm::ivec2 a = w + glm::ivec2(from), z = w + glm::ivec2(to);
+    return glm::ivec4(a, glm::max(z, a));
+  };
 }
 
 }  // namespace penumbra::render::passes
