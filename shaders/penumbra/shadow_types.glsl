@@ -35,6 +35,7 @@ struct ShadowGpu {
   uvec4 counts;    // x count, y depth convention, z resolution, w layout
   uvec4 modes;     // x cascade selection (0 view distance, 1 containment)
   uvec4 redrawn[PENUMBRA_MAX_CASCADES];  // x kRedrawn* bits, yz move in texels (debug view)
+  uvec4 redrawn_rect[PENUMBRA_MAX_CASCADES];  // map texels moving casters were drawn into
   vec4 window[PENUMBRA_MAX_CASCADES];    // the windowed lookups' window (pcf.glsl), z 0: none
 };
 

@@ -115,8 +115,9 @@ PcssLocalParams local_params(float radius, float texel_at_unit, float near, floa
 }
 
 // The debug view `redrawn`: what the shadow-map cache drew this frame of a map (or cube face)
-// with bits b (shadow_types.glsl): 3 drawn whole, 1 restored with moving casters drawn over, 0
-// kept (the sun's codes, shadow_resolve.comp; a spot or point map is never scrolled).
+// with bits b (shadow_types.glsl): 3 drawn whole, 1 drawn again where moving casters were or are
+// (somewhere in it: the whole map or face is marked), 0 kept (the sun's codes,
+// shadow_resolve.comp; a spot or point map is never scrolled).
 float redrawn_code(uint b) {
   return (b & PENUMBRA_REDRAWN_WHOLE) != 0u ? 3.0 : (b & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
 }

@@ -153,8 +153,9 @@ int select_cascade_containing(vec3 p, int count) {
 
 // The debug view `redrawn`: what the shadow-map cache drew this frame of the texel of cascade c
 // that p falls in (ShadowGpu.redrawn): 3 the cascade was drawn whole, 2 the texel lies in a
-// strip a scrolled cascade newly reached, 1 the cascade was restored and moving casters drawn
-// over it, 0 kept as it was.
+// strip a scrolled cascade newly reached, 1 it lies where moving casters were or are and was
+// drawn again (the cascade restored with the moving casters drawn over it, through a grid of its
+// own), 0 kept as it was.
 float redrawn_code(int c, vec3 p) {
   uvec4 r = shadow.redrawn[c];
   if ((r.x & PENUMBRA_REDRAWN_WHOLE) != 0u) return 3.0;
@@ -166,7 +167,12 @@ float redrawn_code(int c, vec3 p) {
         (m.y > 0.0 && t.y >= n - m.y) || (m.y < 0.0 && t.y < -m.y))
       return 2.0;
   }
-  return (r.x & PENUMBRA_REDRAWN_MOVING) != 0u ? 1.0 : 0.0;
+  if ((r.x & PENUMBRA_REDRAWN_MOVING) == 0u) return 0.0;
+  // Drawn again where moving casters were or are: that rectangle (the whole cascade without one).
+  uvec4 d = shadow.redrawn_rect[c];
+  if (d.z == 0u) return 1.0;
+  vec2 t = floor(world_to_shadow_coord(shadow.cascades[c].view_proj, p).xy * float(shadow.counts.z));
+  return all(greaterThanEqual(t, vec2(d.xy))) && all(lessThan(t, vec2(d.zw))) ? 1.0 : 0.0;
 }
 
 // The camera-relative world position seen at screen uv with depth buffer value depth.

@@ -98,7 +98,7 @@ void main() {
   if (view == kViewRedrawn) {
     // What the shadow-map cache drew this frame of the texel each pixel reads (the resolves'
     // redrawn_code): red drawn whole, yellow a strip a scrolled cascade newly reached, cyan
-    // restored with moving casters drawn over, the image in grey where the map was kept.
+    // drawn again where moving casters were or are, the image in grey where the map was kept.
     float grey = dot(out_rgb, vec3(0.2126, 0.7152, 0.0722)) * 0.6;
     const vec3 kRedrawnColors[4] = vec3[](vec3(grey), vec3(0.2, 0.9, 1.0), vec3(1.0, 0.9, 0.2),
                                           vec3(1.0, 0.25, 0.2));

@@ -83,6 +83,8 @@ std::map<std::string, Expected> expected_layout() {
   e["shadow.modes"] = {offsetof(ShadowGpu, modes), sizeof(glm::uvec4), 0, 0};
   e["shadow.redrawn"] = {offsetof(ShadowGpu, redrawn), sizeof(ShadowGpu::redrawn),
                          sizeof(glm::uvec4), 0};
+  e["shadow.redrawn_rect"] = {offsetof(ShadowGpu, redrawn_rect), sizeof(ShadowGpu::redrawn_rect),
+                              sizeof(glm::uvec4), 0};
   e["shadow.window"] = {offsetof(ShadowGpu, window), sizeof(ShadowGpu::window), kVec4, 0};
 
   e["spot.view_proj"] = {offsetof(SpotShadowGpu, view_proj), kMat4, 0, kVec4};

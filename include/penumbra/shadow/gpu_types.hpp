@@ -60,6 +60,9 @@ struct alignas(16) ShadowGpu {
   // cascade's move across its map since the last frame in texels (two's complement): with
   // kRedrawnStrips, the columns and rows that move brought in are the texels drawn.
   glm::uvec4 redrawn[kMaxCascades];
+  // With kRedrawnMoving: the map texels (x0, y0, x1, y1) drawn again where moving casters were
+  // or are (the whole cascade when x1 = 0; debug view, as redrawn).
+  glm::uvec4 redrawn_rect[kMaxCascades];
   // Where each cascade's map lies on the image the lookups sample: xy the whole-texel offset of
   // its texel 0, z 1 when that image is the renderer's toroidal grid sampled in place (repeat
   // addressing; pcf.glsl's windowed lookups take this as their window), 0 when it is the map.
@@ -130,8 +133,9 @@ static_assert(offsetof(ShadowGpu, camera_forward) == 736);
 static_assert(offsetof(ShadowGpu, counts) == 752);
 static_assert(offsetof(ShadowGpu, modes) == 768);
 static_assert(offsetof(ShadowGpu, redrawn) == 784);
-static_assert(offsetof(ShadowGpu, window) == 912);
-static_assert(sizeof(ShadowGpu) == 1040);
+static_assert(offsetof(ShadowGpu, redrawn_rect) == 912);
+static_assert(offsetof(ShadowGpu, window) == 1040);
+static_assert(sizeof(ShadowGpu) == 1168);
 
 static_assert(offsetof(SpotShadowGpu, view_proj) == 0);
 static_assert(offsetof(SpotShadowGpu, position_near) == 64);

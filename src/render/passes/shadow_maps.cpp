@@ -6,22 +6,27 @@
 // coarse as the shadows reach; a spot or point light's: its position), never the camera, so a
 // map's texels depend only on its light, its casters and its matrices.
 //
-// The sun's cascades are drawn into a grid image first (sun-shadow-grid): grid texel g of a
-// cascade lives at texel g mod N of its layer (toroidal), always drawn at the same window
-// position (CascadeDrawGpu), and each frame the cascade's window [w, w + N) is copied out of it
-// into the map the resolves sample (in window order). A cascade that moved by whole texels keeps
-// what it held and is drawn only where it newly reaches.
+// The sun's cascades are drawn into a grid: grid texel g of a cascade lives at texel g mod N of
+// its layer (toroidal), always drawn at the same window position (CascadeDrawGpu), so a cascade
+// that moved by whole texels keeps what it held and is drawn only where it newly reaches. On a
+// GPU the resolves read the grid in place (sun-shadow-map is the grid; SunWindow::in_place); a
+// CPU device draws it into an image of its own (sun-shadow-grid) and copies each cascade's
+// window [w, w + N) into the map in window order.
 //
 // The cache (shadows.cache) keys each layer on what its texels depend on: its grid or matrices,
 // every still caster with its transform and material, the depth convention and the pipelines'
 // generation; a layer whose key is unchanged is not drawn. Moving casters (Instance::motion)
-// are drawn over the map each time they or it changed, after it is restored from the still
-// casters (the grid, or a still copy of a spot or point map). Depth-only draws keep the nearest
-// depth whatever their order, so this is the same bit for bit as drawing every layer every
-// frame (shadows.cache = false, which takes the same route without keeping anything).
+// are keyed apart: where the map is drawn as it is sampled (read in place, spot and point
+// maps), the rectangle they reached last frame and reach now is drawn again with every caster
+// in it; through sun-shadow-grid, they are drawn over the copied map. Depth-only draws keep the
+// nearest depth whatever their order, and a texel is always rasterized at the same window
+// position, so this is the same bit for bit as drawing every layer every frame
+// (shadows.cache = false, which takes the same route without keeping anything).
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <limits>
 #include <penumbra/shadow/pack.hpp>
 
 #include "shadow_view.hpp"
@@ -69,6 +74,42 @@ void add_caster_pipelines(FrameResources& r, const std::string& name, const std:
 }
 
 namespace {
+
+// The texels (x0, y0, x1, y1) of a side x side layer that bounds b can be drawn into through
+// view_proj (world to clip, perspective, near plane at w = near): the square of the box's part
+// in front of a plane just inside the near plane (its corners there and its edges' crossings),
+// in whole texels, grown by two. A box's perspective image lies within that square; what lies
+// behind the near plane is clipped anyway.
+glm::ivec4 projected_rect(const glm::dmat4& view_proj, double near, const scene::Bounds& b,
+                          int side) {
+  if (b.empty()) return glm::ivec4(0);
+  std::array<glm::dvec4, 8> corner;
+  for (int i = 0; i < 8; ++i)
+    corner[size_t(i)] = view_proj * glm::dvec4((i & 1) ? b.max.x : b.min.x,
+                                               (i & 2) ? b.max.y : b.min.y,
+                                               (i & 4) ? b.max.z : b.min.z, 1.0);
+  const double plane = 0.99 * near;
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+  const auto add = [&](const glm::dvec4& c) {
+    const glm::dvec2 t = (glm::dvec2(c) / c.w * 0.5 + 0.5) * double(side);
+    lo = glm::min(lo, t);
+    hi = glm::max(hi, t);
+  };
+  for (int i = 0; i < 8; ++i) {
+    const glm::dvec4& a = corner[size_t(i)];
+    if (a.w >= plane) add(a);
+    for (int axis = 1; axis < 8; axis <<= 1) {  // the edges to the corners one bit up
+      if (i & axis) continue;
+      const glm::dvec4& c = corner[size_t(i | axis)];
+      if ((a.w < plane) != (c.w < plane)) add(a + (c - a) * ((plane - a.w) / (c.w - a.w)));
+    }
+  }
+  if (!(lo.x <= hi.x)) return glm::ivec4(0);  // wholly behind the near plane (or not finite)
+  const glm::dvec2 limit{double(side)};
+  const glm::ivec2 from(glm::clamp(glm::floor(lo) - 2.0, glm::dvec2(0.0), limit));
+  const glm::ivec2 to(glm::clamp(glm::floor(hi) + 3.0, glm::dvec2(0.0), limit));
+  return glm::ivec4(from, glm::max(to, from));
+}
 
 // Whether bounds b reach the sphere (centre, radius).
 bool reaches_sphere(const scene::Bounds& b, const glm::dvec3& centre, double radius) {
@@ -144,6 +185,11 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
       const double t = s.tan_half_angle;
       return reaches_sphere(b, s.position, s.far * std::sqrt(1.0 + 2.0 * t * t) * 1.001);
     };
+    const gpu::Image& maps = spot_maps;
+    v.rect = [&maps](const PackedFrame& f, uint32_t i, const scene::Bounds& b) {
+      const shadow::SpotShadow& s = f.spot_shadows[i];
+      return projected_rect(s.view_proj, s.near, b, int(maps.desc().width));
+    };
     r.report.passes.push_back("spot-shadow: " + std::to_string(n) + " map(s) " +
                               std::to_string(res) + "^2");
   }
@@ -189,6 +235,11 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
       const shadow::PointShadow& p = f.point_shadows[l / 6];
       return reaches_sphere(b, p.position, p.depth_far * std::sqrt(3.0) * 1.001);
     };
+    const gpu::Image& cubes = point_cubes;
+    v.rect = [&cubes](const PackedFrame& f, uint32_t l, const scene::Bounds& b) {
+      const shadow::PointShadow& p = f.point_shadows[l / 6];
+      return projected_rect(p.face_view_proj[l % 6], p.clip_near, b, int(cubes.desc().width));
+    };
     const gpu::PipelineLayout& layout = *v.layout;
     auto& pipe = v.opaque;
     r.add_pipeline("point-shadow-cube (linear distance)",
@@ -210,8 +261,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     r.report.passes.push_back("point-shadow: " + std::to_string(n) + " cube(s) x 6 faces" +
                               (fitted ? " (fitted to the camera: the faces it sees)" : ""));
   }
-  // The base images: the sun's grid (always: shadows.cache = false takes the same route), and a
-  // spot or point view's still copy when the cache keeps one for moving casters.
+  // The base image: the sun's grid where the cascades scroll through it into a map (a CPU
+  // device's route; shadows.cache = false takes the same route).
   cache_ = r.scene.shadows.cache;
   const bool moving = std::any_of(r.scene.instances.begin(), r.scene.instances.end(),
                                   [](const scene::Instance& i) {
@@ -229,18 +280,18 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                   (r.sun_window == SunWindow::automatic && !cpu));
     v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
                             (r.scroll_cascades == Scroll::automatic && (cpu || v.in_place)));
-    // Moving casters over the still ones: the sun's grid holds those when it scrolls; without it
-    // the sun draws every caster whole when any changed.
+    // Moving casters apart from the still ones: over the sun's grid when it is copied into the
+    // map; where the map is drawn as sampled (read in place, a spot or point view), again with
+    // the rest where they were and are. Without scrolling the sun draws every caster whole.
     v.moving = moving && (v.grid() ? v.scroll : cache_);
-    // The grid: the cascades, written into the map; read in place, the still casters, which
-    // the map (in the grid's layout) adds the moving ones to.
-    if (v.scroll && (!v.in_place || v.moving)) {
+    // The grid the cascades scroll through, written into the map (read in place, the map is
+    // the grid).
+    if (v.scroll && !v.in_place) {
       v.base_name = "sun-shadow-grid";
-      v.base_image = r.make_image(
-          v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers, kMapUsage, 1,
-          "shadows.resolution = " + std::to_string(d.width) +
-              (v.in_place ? " (the cascades' still casters; sun-shadow-map adds the moving ones)"
-                          : " (the cascades' grid, drawn into sun-shadow-map)"));
+      v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
+                                  kMapUsage, 1,
+                                  "shadows.resolution = " + std::to_string(d.width) +
+                                      " (the cascades' grid, drawn into sun-shadow-map)");
     }
     v.window_by_draw = v.scroll && !v.in_place &&
                        (r.sun_window == SunWindow::draw ||
@@ -286,13 +337,6 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
           .combined_image(0, v.base_image.view(), r.raw_depth.handle())
           .update(r.ctx, v.window_set);
     }
-    if (!v.grid() && v.moving) {
-      v.base_name = v.image + "-still";
-      v.base_image = r.make_image(v.base_name, d.kind, kDepthFormat, d.width, d.height, d.layers,
-                                  kMapUsage, 1,
-                                  "shadows.cache = true (" + v.image +
-                                      "'s still casters, kept for the moving ones)");
-    }
     cache_bytes += r.image_bytes - before;
   }
   if (!views_.empty()) {
@@ -308,8 +352,13 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
                       (sun_in_place ? ", read in place from sun-shadow-map as their toroidal grid"
                                     : "")
                 : std::string("off (shadows.cache = false): every layer drawn every frame")) +
-        (moving ? "; moving casters drawn over the still ones" : "") + " (" + mib +
-        " beside the maps)");
+        (!moving ? ""
+         : std::any_of(views_.begin(), views_.end(),
+                       [](const View& v) { return v.moving && v.has_base(); })
+             ? "; moving casters drawn over the still ones (the sun's grid), elsewhere again "
+               "with the rest where they were and are"
+             : "; moving casters drawn again with the rest where they were and are") +
+        " (" + mib + " beside the maps)");
   }
 }
 

@@ -81,9 +81,11 @@ void ShadowMapPass::prepare(FrameResources& r) {
       common.bytes(packed.bytes.data() + offset, size);
       common.add(!v.draws || v.draws(f, l));
       Hash base = common, moving = common;
-      if (!v.in_place) moving.add(v.window[l]);  // in place the map keeps the grid's layout
+      // The moving casters are drawn into the map through its window, unless it keeps the
+      // base's layout.
+      if (!v.same_layout()) moving.add(v.window[l]);
       bool any_moving = false;
-      glm::ivec4 moving_rect(v.window[l], v.window[l]);  // read in place: where they reach
+      glm::ivec4 moving_rect(v.window[l], v.window[l]);  // where they reach (same layout)
       const std::vector<glm::mat4>& models = v.models[v.slot(l)];
       for (size_t i = 0; i < f.draws.size(); ++i) {
         const Draw& d = f.draws[i];
@@ -94,7 +96,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
             !v.touches(f, l, v.window[l], v.window[l] + glm::ivec2(side), bounds[i]))
           continue;
         any_moving = any_moving || moves;
-        if (moves && v.in_place) moving_rect = unite(moving_rect, v.grid_rect(f, l, bounds[i]));
+        if (moves && v.same_layout()) moving_rect = unite(moving_rect, v.rect(f, l, bounds[i]));
         Hash& h = moves ? moving : base;
         h.add(i);
         h.add(models[i]);
@@ -143,50 +145,34 @@ void ShadowMapPass::prepare(FrameResources& r) {
           continue;
         }
       }
-      if (!v.has_base()) continue;
       Hash full = moving;
       full.add(base.h);
-      if (v.in_place) {
-        // The map keeps the grid's layout: whatever of it changed is copied across where it
-        // lies, the strips the grid newly drew and the rectangle where moving casters were (in
-        // what is still the window) or are, and the moving casters are drawn there again.
+      if (v.same_layout()) {
+        // No base: what changed is drawn again in the map where it lies: the whole layer, the
+        // strips the cascade newly reaches, and the rectangle where moving casters were (in what
+        // is still the window) or are, every caster that reaches it drawn there (a held caster a
+        // scroll reaches into is drawn with the rest in its strips).
         const glm::ivec4 window(v.window[l], v.window[l] + glm::ivec2(side));
         const glm::ivec4 was = intersect(v.moving_rect[l], window);
         v.moving_rect[l] = moving_rect;
-        uint8_t restore = 0;
-        if (!cache_ || plan == View::Base::draw) {
-          restore = View::kRestoreWhole;
-        } else {
-          if (plan == View::Base::strips) restore |= View::kRestoreStrips;
-          if (full.h != v.map_key[l] || (plan == View::Base::strips && any_moving)) {
-            v.dirty[l] = unite(was, moving_rect);
-            if (v.dirty[l].x < v.dirty[l].z && v.dirty[l].y < v.dirty[l].w)
-              restore |= View::kRestoreRect;
+        if (cache_ && plan != View::Base::draw &&
+            full.h != v.map_key[l]) {
+          const glm::ivec4 d = unite(was, moving_rect);
+          if (d.x < d.z && d.y < d.w) {
+            v.dirty[l] = d;
+            v.redrawn[l].x |= shadow::kRedrawnMoving;
+            ++stats_.moving_drawn;
+            stats_.texels_drawn += uint64_t(d.z - d.x) * uint64_t(d.w - d.y);
           }
         }
         v.map_key[l] = full.h;
-        v.restore[l] = restore;
-        if (any_moving && (restore & (View::kRestoreWhole | View::kRestoreRect))) {
-          v.redrawn[l].x |= shadow::kRedrawnMoving;
-          ++stats_.moving_drawn;
-          const glm::ivec4 d = v.dirty[l];
-          stats_.texels_drawn += restore & View::kRestoreWhole
-                                     ? texels
-                                     : uint64_t(d.z - d.x) * uint64_t(d.w - d.y);
-        }
         continue;
       }
-      // In place a scroll alone needs only its strips copied across; moving casters in a
-      // scrolled layer need it restored and drawn again (they may reach into the strips).
-      const bool changed =
-          full.h != v.map_key[l] ||
-          (v.in_place ? plan == View::Base::draw || (plan == View::Base::strips && any_moving)
-                      : plan != View::Base::keep);
+      if (!v.has_base()) continue;
+      const bool changed = full.h != v.map_key[l] || plan != View::Base::keep;
       v.map_key[l] = full.h;
-      v.restore[l] = !cache_ || changed ? View::kRestoreWhole
-                     : v.in_place && plan == View::Base::strips ? View::kRestoreStrips
-                                                                : 0;
-      if (v.restore[l] == View::kRestoreWhole && any_moving) {
+      v.restore[l] = !cache_ || changed ? 1 : 0;
+      if (v.restore[l] && any_moving) {
         v.redrawn[l].x |= shadow::kRedrawnMoving;
         ++stats_.moving_drawn;
         stats_.texels_drawn += texels;
@@ -199,6 +185,11 @@ void ShadowMapPass::prepare(FrameResources& r) {
       shadow::ShadowGpu sun = f.shadow;
       for (size_t c = 0; c < v.redrawn.size() && c < shadow::kMaxCascades; ++c) {
         sun.redrawn[c] = v.redrawn[c];
+        // The rectangle in map texels (the grid's less the window, within it).
+        if (c < v.dirty.size() && v.dirty[c].x < v.dirty[c].z) {
+          const glm::ivec2 w = v.window[c];
+          sun.redrawn_rect[c] = glm::uvec4(glm::ivec4(v.dirty[c]) - glm::ivec4(w, w));
+        }
         if (v.in_place) sun.window[c] = glm::vec4(glm::vec2(sun_offset(uint32_t(c))), 1.0f, 0.0f);
       }
       sun_ubo.write(std::as_bytes(std::span(&sun, 1)));

@@ -119,18 +119,24 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                    {},
                    separate ? std::string() : v.name};
     base_step.record = [&v, &base, draw, wrapped, whole](VkCommandBuffer cmd) {
-      const Casters which = v.moving ? Casters::still : Casters::all;
+      // The still casters into a base of their own; into the map itself, every caster.
+      const Casters which = v.moving && v.has_base() ? Casters::still : Casters::all;
       const int n = int(v.target->desc().width);
       for (uint32_t l = 0; l < v.base_plan.size(); ++l) {
-        if (v.base_plan[l] == View::Base::draw)
+        if (v.base_plan[l] == View::Base::draw) {
           draw(cmd, base, l, which,
                v.grid() ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), true);
-        if (v.base_plan[l] != View::Base::strips) continue;
+          continue;
+        }
+        // The strips a cascade newly reaches, and where moving casters were or are.
+        std::vector<glm::ivec4> rects;
+        if (v.base_plan[l] == View::Base::strips) rects = v.strips[l];
+        if (!v.dirty.empty() && v.dirty[l].x < v.dirty[l].z) rects.push_back(v.dirty[l]);
         std::vector<Area> areas;
-        for (const glm::ivec4& s : v.strips[l])
+        for (const glm::ivec4& s : rects)
           for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))
             areas.push_back(a);
-        draw(cmd, base, l, which, areas, false);
+        if (!areas.empty()) draw(cmd, base, l, which, areas, false);
       }
     };
     out.push_back(std::move(base_step));
@@ -184,23 +190,12 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
                          const glm::ivec2 w = v.grid() ? v.window[l] : glm::ivec2(0);
                          // Read in place, the map keeps the grid's layout: the window whole,
                          // or the strips the grid newly drew, each where it lies.
-                         std::vector<Area> areas = wrapped(w, w + glm::ivec2(n));
-                         if (!(v.restore[l] & View::kRestoreWhole)) {
-                           std::vector<glm::ivec4> rects;
-                           if (v.restore[l] & View::kRestoreStrips) rects = v.strips[l];
-                           if (v.restore[l] & View::kRestoreRect) rects.push_back(v.dirty[l]);
-                           areas.clear();
-                           for (const glm::ivec4& s : rects)
-                             for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))
-                               areas.push_back(a);
-                         }
-                         for (const Area& a : areas) {
+                         for (const Area& a : wrapped(w, w + glm::ivec2(n))) {
                            VkImageCopy c{};
                            c.srcSubresource = {VK_IMAGE_ASPECT_DEPTH_BIT, 0, l, 1};
                            c.dstSubresource = c.srcSubresource;
                            c.srcOffset = {a.rect.offset.x, a.rect.offset.y, 0};
-                           c.dstOffset = v.in_place ? c.srcOffset
-                                                    : VkOffset3D{a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
+                           c.dstOffset = {a.grid_lo.x - w.x, a.grid_lo.y - w.y, 0};
                            c.extent = {a.rect.extent.width, a.rect.extent.height, 1};
                            regions.push_back(c);
                          }
@@ -223,17 +218,9 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
     }
     if (!v.moving) continue;
     Step step{v.name, {{v.image, v.target, Use::depth_modify}}, {}, v.name};
-    step.record = [&v, draw, whole, wrapped](VkCommandBuffer cmd) {
-      const int n = int(v.target->desc().width);
-      for (uint32_t l = 0; l < v.restore.size(); ++l) {
-        const glm::ivec4 d = v.dirty.empty() ? glm::ivec4(0) : v.dirty[l];
-        if (v.restore[l] & View::kRestoreWhole)
-          draw(cmd, *v.target, l, Casters::moving,
-               v.in_place ? wrapped(v.window[l], v.window[l] + glm::ivec2(n)) : whole(l), false);
-        else if (v.restore[l] & View::kRestoreRect)
-          draw(cmd, *v.target, l, Casters::moving, wrapped(glm::ivec2(d), glm::ivec2(d.z, d.w)),
-               false);
-      }
+    step.record = [&v, draw, whole](VkCommandBuffer cmd) {
+      for (uint32_t l = 0; l < v.restore.size(); ++l)
+        if (v.restore[l]) draw(cmd, *v.target, l, Casters::moving, whole(l), false);
     };
     out.push_back(std::move(step));
   }

@@ -99,7 +99,7 @@ void configure_sun_view(FrameResources& r, ShadowMapPass::View& v, gpu::Image& m
   };
   // The grid texels (x0, y0, x1, y1) bounds b can be drawn into in cascade c: its square across
   // the light in whole texels, grown by two, within the cascade's window (empty: x0 >= x1).
-  v.grid_rect = [&v](const PackedFrame& f, uint32_t c, const scene::Bounds& b) {
+  v.rect = [&v](const PackedFrame& f, uint32_t c, const scene::Bounds& b) {
     const glm::ivec2 w = v.window.at(c);
     const int side = int(v.target->desc().width);
     if (b.empty()) return glm::ivec4(w, w);

@@ -73,14 +73,16 @@ struct ShadowMapPass::View {
   enum class Base : uint8_t { keep, draw, strips };
   std::vector<Base> base_plan;
   std::vector<std::vector<glm::ivec4>> strips;  // grid rectangles (x0, y0, x1, y1) newly reached
-  // The map copied from the base (and the moving drawn over): whole, or (read in place, where
-  // the map keeps the grid's layout) the strips the grid newly drew and the rectangle `dirty`
-  // where moving casters were or are, with the moving casters drawn there again.
-  static constexpr uint8_t kRestoreWhole = 1, kRestoreStrips = 2, kRestoreRect = 4;
-  std::vector<uint8_t> restore;
-  std::vector<glm::ivec4> dirty, moving_rect;  // grid texels (x0, y0, x1, y1)
-  // The sun: the grid texels bounds can be drawn into in a cascade (within its window).
-  std::function<glm::ivec4(const PackedFrame&, uint32_t, const scene::Bounds&)> grid_rect;
+  std::vector<uint8_t> restore;  // the map copied from the base (and the moving drawn over)
+  // Without a base (same_layout): the rectangle where moving casters were or are, drawn again
+  // this frame (x0, y0, x1, y1; empty: none), and where they reach, per layer.
+  std::vector<glm::ivec4> dirty, moving_rect;
+  // The texels of layer l that bounds b can be drawn into (x0, y0, x1, y1): the sun's in grid
+  // texels within the cascade's window, a spot map's or cube face's in its own.
+  std::function<glm::ivec4(const PackedFrame&, uint32_t, const scene::Bounds&)> rect;
+  // Whether the map is drawn as it is sampled, with no base (the sun read in place, a spot or
+  // point view): moving casters are drawn again with the rest where they were and are.
+  bool same_layout() const { return in_place || !grid(); }
   // The sun without moving casters: a cascade drawn whole while its window starts on a whole
   // map of the grid (w mod N = 0, as after every new grid) is drawn straight into the map, whose
   // layout is then the grid's (`direct`); the grid layer is left stale (`in_map`) until the
