@@ -479,6 +479,8 @@ int run(int argc, char** argv) {
     for (const auto& name : views()) {
       if (name == "lit") continue;
       renderer.set_debug_view(view_of(name));
+      // `redrawn` shows what a frame drew after the one before it, not after the views before.
+      if (name == "redrawn") renderer.render(frames - 1);
       renderer.render(frames);
       const fs::path png = out / (name + ".png");
       penumbra::render::write_png(png, renderer.width(), renderer.height(), renderer.read_rgba8());

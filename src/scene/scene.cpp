@@ -113,6 +113,13 @@ void Scene::pose(std::uint32_t k) {
     if (instance.motion) instance.transform = instance.motion->transform_at(k);
 }
 
+void Scene::hold_still() {
+  pose(0);
+  for (Instance& instance : instances) instance.motion.reset();
+  camera.move = glm::vec3(0.0f);
+  camera.move_frames = 0;
+}
+
 bool Scene::has_motion() const {
   if (camera.move_frames > 0 && camera.move != glm::vec3(0.0f)) return true;
   return std::any_of(instances.begin(), instances.end(),

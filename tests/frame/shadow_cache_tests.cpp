@@ -23,8 +23,10 @@ namespace {
 
 using testing::GpuTest;
 
+// A shipped scene, small and held still: the tests give it the motions they script.
 scene::Scene small(std::string_view name) {
   auto s = scene::load_scene(scene::find_scene(name));
+  s.hold_still();
   s.render.width = 160;
   s.render.height = 90;
   s.shadows.resolution = 256;

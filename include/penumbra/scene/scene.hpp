@@ -294,6 +294,9 @@ struct Scene {
   // Camera::position_at); instances without motion are left as they are.
   void pose(std::uint32_t k);
   bool has_motion() const;  // an instance moves or the camera walks
+  // Drops every motion, the objects' and the camera's walk: the scene as frame 0 has it, at
+  // every frame (what a measure of the shadows' own stability holds a shipped scene to).
+  void hold_still();
 
   // Of all instances, transformed to world space, over their whole motion: a moving instance
   // adds every place it passes through (the sun's cascades take their depth range from this,
