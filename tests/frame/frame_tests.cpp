@@ -262,12 +262,8 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
     // The frame graph, as the report prints it: the steps in the order their images give.
     std::vector<std::string> steps;
     for (const auto& g : b.graph) steps.push_back(g.substr(0, g.find(':')));
-    // A CPU device scrolls the cascades through their grid (and copies it into the map); a GPU
-    // scrolls them in the map itself, which the resolves read in place.
-    std::vector<std::string> sun{"sun-shadow"};
-    if (ctx().info().is_cpu) sun = {"sun-shadow-sync", "sun-shadow-grid", "sun-shadow-copy",
-                                    "sun-shadow"};
-    std::vector<std::string> expected = sun;
+    // The cascades scroll in the map itself, which the resolves read in place: one step.
+    std::vector<std::string> expected{"sun-shadow"};
     for (const char* step : {"prepass", "shadow-resolve", "shadow-temporal",
                              "shadow-temporal-history", "contact-resolve", "contact-shadows",
                              "forward", "tonemap", "readback"})

@@ -56,14 +56,16 @@ void reload(render::Renderer& r, const std::string& name) {
   ADD_FAILURE() << "no shader file " << name;
 }
 
-// Cascades that scroll through the grid (a CPU device's default, forced so the GPU runs it too).
+// Cascades that scroll through a grid of their own, copied into the map (where EVSM2 moments are
+// made from it; forced so every device runs it).
 render::RendererOptions scrolling() {
   render::RendererOptions o;
   o.scroll_cascades = render::RendererOptions::Scroll::on;
+  o.sun_window = render::RendererOptions::SunWindow::copy;
   return o;
 }
 
-// Cascades read in place from their toroidal grid (a GPU's default where it can).
+// Cascades read in place from their toroidal grid (the default where it can).
 render::RendererOptions in_place() {
   render::RendererOptions o = scrolling();
   o.sun_window = render::RendererOptions::SunWindow::in_place;

@@ -37,17 +37,18 @@ struct RendererOptions {
   // written into each frame, by a copy or by a draw that writes each texel's depth (the same
   // texels either way), or from the toroidal grid itself, in place, through a window offset and
   // repeat addressing (pcf.glsl's windowed lookups: nothing written but what the cascades newly
-  // reach). In place needs a scene without moving casters and a sun filter without EVSM2
-  // moments; elsewhere it falls back to the copy. `automatic`: a CPU device copies (a memcpy);
-  // a GPU reads in place where it can (writing depth that is not a raster's output costs an H100
-  // as much as drawing the casters), and otherwise does not scroll.
+  // reach and where moving casters were and are). In place needs a sun filter without EVSM2
+  // moments (they are made from a map); elsewhere it falls back to the copy. `automatic` reads
+  // in place where it can: on an H100 writing depth that is not a raster's output costs as
+  // much as drawing the casters, and on lavapipe the copies cost a walk 8 times what drawing the
+  // strips does (docs/performance.md).
   enum class SunWindow { automatic, copy, draw, in_place };
   SunWindow sun_window = SunWindow::automatic;
   // Whether a sun cascade that moved by whole texels keeps what it holds and is drawn only where
   // it newly reaches (through the grid image), or is drawn whole into its map again. Scrolling
   // needs the cascade's window written into the map each frame it moved, unless it is read in
-  // place: `automatic` scrolls on a CPU device, and on a GPU where the sun is read in place. The
-  // images are the same with the cache on and off either way.
+  // place: `automatic` scrolls where the sun is read in place, and through a copy on a CPU
+  // device. The images are the same with the cache on and off either way.
   enum class Scroll { automatic, on, off };
   Scroll scroll_cascades = Scroll::automatic;
 };

@@ -276,8 +276,7 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     const bool cpu = r.ctx.info().is_cpu;
     // Read in place: no moments made from a map.
     v.in_place = v.grid() && !r.req.sun_moments &&
-                 (r.sun_window == SunWindow::in_place ||
-                  (r.sun_window == SunWindow::automatic && !cpu));
+                 (r.sun_window == SunWindow::in_place || r.sun_window == SunWindow::automatic);
     v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
                             (r.scroll_cascades == Scroll::automatic && (cpu || v.in_place)));
     // Moving casters apart from the still ones: over the sun's grid when it is copied into the
