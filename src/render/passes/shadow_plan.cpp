@@ -1,5 +1,6 @@
 // The shadow-map pass's plan of a frame: each layer's keys, and whether its base is kept,
 // drawn whole or drawn in the strips a scrolled cascade newly reaches (shadow_maps.cpp).
+#include <algorithm>
 #include <cstdlib>
 
 #include "shadow_view.hpp"
@@ -68,8 +69,8 @@ void ShadowMapPass::prepare(FrameResources& r) {
     v.sync.assign(layers, 0);
     v.in_map.resize(layers, 0);
     v.redrawn.assign(layers, glm::uvec4(0));
-    v.dirty.assign(layers, glm::ivec4(0));
-    v.moving_rect.resize(layers, glm::ivec4(0));
+    v.dirty.assign(layers, {});
+    v.reach.resize(layers);
     stats_.layers += layers;
     for (uint32_t l = 0; l < layers; ++l) {
       // The base's key: what its texels depend on besides the window: the grid or matrices, the
@@ -85,7 +86,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
       // base's layout.
       if (!v.same_layout()) moving.add(v.window[l]);
       bool any_moving = false;
-      glm::ivec4 moving_rect(v.window[l], v.window[l]);  // where they reach (same layout)
+      std::vector<View::Reach> reach;  // where the moving casters reach (same layout)
       const std::vector<glm::mat4>& models = v.models[v.slot(l)];
       for (size_t i = 0; i < f.draws.size(); ++i) {
         const Draw& d = f.draws[i];
@@ -96,14 +97,15 @@ void ShadowMapPass::prepare(FrameResources& r) {
             !v.touches(f, l, v.window[l], v.window[l] + glm::ivec2(side), bounds[i]))
           continue;
         any_moving = any_moving || moves;
-        if (moves && v.same_layout()) moving_rect = unite(moving_rect, v.rect(f, l, bounds[i]));
-        Hash& h = moves ? moving : base;
-        h.add(i);
-        h.add(models[i]);
-        h.add(d.mesh);
-        h.add(d.masked);
-        h.add(d.push.mask);
-        h.add(d.mask_texture);
+        Hash caster;
+        caster.add(i);
+        caster.add(models[i]);
+        caster.add(d.mesh);
+        caster.add(d.masked);
+        caster.add(d.push.mask);
+        caster.add(d.mask_texture);
+        if (moves && v.same_layout()) reach.push_back({i, v.rect(f, l, bounds[i]), caster.h});
+        (moves ? moving : base).add(caster.h);
       }
       View::Base plan = View::Base::draw;
       const glm::ivec2 move = v.window[l] - v.base_window[l];
@@ -149,20 +151,34 @@ void ShadowMapPass::prepare(FrameResources& r) {
       full.add(base.h);
       if (v.same_layout()) {
         // No base: what changed is drawn again in the map where it lies: the whole layer, the
-        // strips the cascade newly reaches, and the rectangle where moving casters were (in what
-        // is still the window) or are, every caster that reaches it drawn there (a held caster a
-        // scroll reaches into is drawn with the rest in its strips).
+        // strips the cascade newly reaches, and for each moving caster drawn otherwise than last
+        // frame (or come, or gone) the rectangle where it was (in what is still the window) and
+        // is, every caster that reaches it drawn there (a held caster a scroll reaches into is
+        // drawn with the rest in its strips).
         const glm::ivec4 window(v.window[l], v.window[l] + glm::ivec2(side));
-        const glm::ivec4 was = intersect(v.moving_rect[l], window);
-        v.moving_rect[l] = moving_rect;
-        if (cache_ && plan != View::Base::draw &&
-            full.h != v.map_key[l]) {
-          const glm::ivec4 d = unite(was, moving_rect);
-          if (d.x < d.z && d.y < d.w) {
-            v.dirty[l] = d;
+        std::vector<View::Reach> was = std::move(v.reach[l]);
+        v.reach[l] = reach;
+        if (cache_ && plan != View::Base::draw && full.h != v.map_key[l]) {
+          const auto redraw = [&](glm::ivec4 d) {
+            if (d.x >= d.z || d.y >= d.w) return;
+            v.dirty[l].push_back(d);
+            stats_.texels_drawn += uint64_t(d.z - d.x) * uint64_t(d.w - d.y);
+          };
+          for (const View::Reach& now : reach) {
+            const auto before = std::find_if(was.begin(), was.end(), [&](const View::Reach& w) {
+              return w.caster == now.caster;
+            });
+            if (before == was.end()) {
+              redraw(unite(intersect(before->rect, window), now.rect));
+            } else {
+              if (before->key != now.key) redraw(now.rect);
+              was.erase(before);
+            }
+          }
+          for (const View::Reach& gone : was) redraw(intersect(gone.rect, window));
+          if (!v.dirty[l].empty()) {
             v.redrawn[l].x |= shadow::kRedrawnMoving;
             ++stats_.moving_drawn;
-            stats_.texels_drawn += uint64_t(d.z - d.x) * uint64_t(d.w - d.y);
           }
         }
         v.map_key[l] = full.h;
@@ -186,9 +202,11 @@ void ShadowMapPass::prepare(FrameResources& r) {
       for (size_t c = 0; c < v.redrawn.size() && c < shadow::kMaxCascades; ++c) {
         sun.redrawn[c] = v.redrawn[c];
         // The rectangle in map texels (the grid's less the window, within it).
-        if (c < v.dirty.size() && v.dirty[c].x < v.dirty[c].z) {
+        if (c < v.dirty.size() && !v.dirty[c].empty()) {
+          glm::ivec4 all = v.dirty[c][0];
+          for (const glm::ivec4& d : v.dirty[c]) all = unite(all, d);
           const glm::ivec2 w = v.window[c];
-          sun.redrawn_rect[c] = glm::uvec4(glm::ivec4(v.dirty[c]) - glm::ivec4(w, w));
+          sun.redrawn_rect[c] = glm::uvec4(all - glm::ivec4(w, w));
         }
         if (v.in_place) sun.window[c] = glm::vec4(glm::vec2(sun_offset(uint32_t(c))), 1.0f, 0.0f);
       }

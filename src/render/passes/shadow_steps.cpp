@@ -51,8 +51,16 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
         std::vector<uint8_t> take(models.size(), 1);
         for (const Area& a : areas) {
           vkCmdSetScissor(cmd, 0, 1, &a.rect);
-          for (size_t i = 0; i < take.size(); ++i)
-              take[i] = v.touches(r.packed, l, a.grid_lo, a.grid_hi, v.bounds[i]) ? 1 : 0;
+          // A caster is drawn where its bounds can reach the rectangle.
+          for (size_t i = 0; i < take.size(); ++i) {
+            bool reaches = v.touches(r.packed, l, a.grid_lo, a.grid_hi, v.bounds[i]);
+            if (reaches && v.rect) {
+              const glm::ivec4 b = v.rect(r.packed, l, v.bounds[i]);
+              reaches = b.x < a.grid_hi.x && b.z > a.grid_lo.x && b.y < a.grid_hi.y &&
+                        b.w > a.grid_lo.y;
+            }
+            take[i] = reaches ? 1 : 0;
+          }
           glm::uvec4 index = v.index(l);
           if (v.grid()) index.y = uint32_t(a.offset.x) | (uint32_t(a.offset.y) << 16);
           draw_casters(cmd, r, *v.layout, v.opaque->handle(),
@@ -131,7 +139,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
         // The strips a cascade newly reaches, and where moving casters were or are.
         std::vector<glm::ivec4> rects;
         if (v.base_plan[l] == View::Base::strips) rects = v.strips[l];
-        if (!v.dirty.empty() && v.dirty[l].x < v.dirty[l].z) rects.push_back(v.dirty[l]);
+        if (!v.dirty.empty()) rects.insert(rects.end(), v.dirty[l].begin(), v.dirty[l].end());
         std::vector<Area> areas;
         for (const glm::ivec4& s : rects)
           for (const Area& a : wrapped(glm::ivec2(s.x, s.y), glm::ivec2(s.z, s.w)))

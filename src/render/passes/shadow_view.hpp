@@ -74,9 +74,16 @@ struct ShadowMapPass::View {
   std::vector<Base> base_plan;
   std::vector<std::vector<glm::ivec4>> strips;  // grid rectangles (x0, y0, x1, y1) newly reached
   std::vector<uint8_t> restore;  // the map copied from the base (and the moving drawn over)
-  // Without a base (same_layout): the rectangle where moving casters were or are, drawn again
-  // this frame (x0, y0, x1, y1; empty: none), and where they reach, per layer.
-  std::vector<glm::ivec4> dirty, moving_rect;
+  // Without a base (same_layout): per layer, the rectangles (x0, y0, x1, y1) drawn again this
+  // frame where a moving caster was or is, and each moving caster where it reaches: its index,
+  // its rectangle and the hash of how it is drawn.
+  struct Reach {
+    size_t caster;
+    glm::ivec4 rect;
+    uint64_t key;
+  };
+  std::vector<std::vector<glm::ivec4>> dirty;
+  std::vector<std::vector<Reach>> reach;
   // The texels of layer l that bounds b can be drawn into (x0, y0, x1, y1): the sun's in grid
   // texels within the cascade's window, a spot map's or cube face's in its own.
   std::function<glm::ivec4(const PackedFrame&, uint32_t, const scene::Bounds&)> rect;
