@@ -171,7 +171,7 @@ void ShadowMapPass::prepare(FrameResources& r) {
             if (before == was.end()) {
               redraw(unite(intersect(before->rect, window), now.rect));
             } else {
-              if (before->key != now.key) redraw(now.rect);
+              if (before->key != now.key) redraw(unite(intersect(before->rect, window), now.rect));
               was.erase(before);
             }
           }
