@@ -10,6 +10,7 @@
 #include <cstring>
 #include <functional>
 #include <limits>
+#include <map>
 #include <glm/gtc/matrix_inverse.hpp>
 #include <penumbra/render/frame_pack.hpp>
 #include <penumbra/render/renderer.hpp>
@@ -160,6 +161,14 @@ scene::Scene filled(std::string_view name) {
   return s;
 }
 
+// A refit (max_distance) before frame 4, a reload of the depth shader before 6, a parameter
+// change (lambda) before 7.
+std::map<uint32_t, Event> refit_reload_and_change() {
+  return {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
+          {6, [](render::Renderer& r) { reload(r, "shadow_depth.vert"); }},
+          {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}};
+}
+
 TEST_F(ShadowCache, AWalkingCameraAndMovingCastersChangeNoPixel) {
   scene::Scene s = filled("default");
   // The ball rolls 2 m to the right and back, the box turns, the camera walks.
@@ -169,9 +178,7 @@ TEST_F(ShadowCache, AWalkingCameraAndMovingCastersChangeNoPixel) {
   s.camera.move_frames = 4;
   const Totals t = expect_identical(
       s, 9,
-      {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
-       {6, [](render::Renderer& r) { reload(r, "shadow_depth.vert"); }},
-       {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}},
+      refit_reload_and_change(),
       scrolling());
   EXPECT_GT(t.moving, 0u);
   EXPECT_GT(t.scrolled, 0u);
@@ -219,9 +226,7 @@ TEST_F(ShadowCache, ReadInPlaceAWalkARefitAReloadAndAParameterChangeNoPixel) {
   s.camera.move_frames = 4;
   const Totals t = expect_identical(
       s, 9,
-      {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
-       {6, [](render::Renderer& r) { reload(r, "shadow_depth.vert"); }},
-       {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}},
+      refit_reload_and_change(),
       in_place());
   EXPECT_GT(t.scrolled, 0u);
   EXPECT_LT(t.drawn, t.layers);

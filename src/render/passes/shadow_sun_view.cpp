@@ -18,6 +18,20 @@ glm::dvec3 sun_anchor(const glm::dvec3& camera, double reach) {
   return glm::floor(camera / cell) * cell;
 }
 
+// The square bounds b cover across the light (its corners on the light basis' x and y).
+std::pair<glm::dvec2, glm::dvec2> light_square(const PackedFrame& f, const scene::Bounds& b) {
+  const shadow::Basis& basis = f.cascades.light_basis;
+  glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
+  for (int i = 0; i < 8; ++i) {
+    const glm::dvec3 p((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y,
+                       (i & 4) ? b.max.z : b.min.z);
+    const glm::dvec2 q(glm::dot(basis.x, p), glm::dot(basis.y, p));
+    lo = glm::min(lo, q);
+    hi = glm::max(hi, q);
+  }
+  return {lo, hi};
+}
+
 }  // namespace
 
 void configure_sun_view(FrameResources& r, ShadowMapPass::View& v, gpu::Image& map, uint32_t n,
@@ -81,15 +95,7 @@ void configure_sun_view(FrameResources& r, ShadowMapPass::View& v, gpu::Image& m
                    const scene::Bounds& b) {
     if (b.empty()) return false;
     const shadow::Cascade& k = f.cascades.cascades[c];
-    const shadow::Basis& basis = f.cascades.light_basis;
-    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
-    for (int i = 0; i < 8; ++i) {
-      const glm::dvec3 p((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y,
-                         (i & 4) ? b.max.z : b.min.z);
-      const glm::dvec2 q(glm::dot(basis.x, p), glm::dot(basis.y, p));
-      lo = glm::min(lo, q);
-      hi = glm::max(hi, q);
-    }
+    const auto [lo, hi] = light_square(f, b);
     // Grid texel g starts at box_min + (g - window) texels.
     const double t = k.texel_world_size;
     const glm::dvec2 w(v.window.at(c));
@@ -104,15 +110,7 @@ void configure_sun_view(FrameResources& r, ShadowMapPass::View& v, gpu::Image& m
     const int side = int(v.target->desc().width);
     if (b.empty()) return glm::ivec4(w, w);
     const shadow::Cascade& k = f.cascades.cascades[c];
-    const shadow::Basis& basis = f.cascades.light_basis;
-    glm::dvec2 lo(std::numeric_limits<double>::infinity()), hi(-lo);
-    for (int i = 0; i < 8; ++i) {
-      const glm::dvec3 p((i & 1) ? b.max.x : b.min.x, (i & 2) ? b.max.y : b.min.y,
-                         (i & 4) ? b.max.z : b.min.z);
-      const glm::dvec2 q(glm::dot(basis.x, p), glm::dot(basis.y, p));
-      lo = glm::min(lo, q);
-      hi = glm::max(hi, q);
-    }
+    const auto [lo, hi] = light_square(f, b);
     const double t = k.texel_world_size;
     const glm::dvec2 box(k.box_min);
     const glm::dvec2 limit{double(side)};
