@@ -171,13 +171,19 @@ std::map<uint32_t, Event> refit_reload_and_change() {
           {7, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.lambda", "0.5"); }}};
 }
 
-TEST_F(ShadowCache, AWalkingCameraAndMovingCastersChangeNoPixel) {
+// The default scene filled: the ball rolls 2 m to the right and back, the box turns, the
+// camera walks.
+scene::Scene rolling_turning_walking() {
   scene::Scene s = filled("default");
-  // The ball rolls 2 m to the right and back, the box turns, the camera walks.
   make_move(s, 3, {2.0f, 0.0f, 0.0f}, 3);
   make_move(s, 2, {}, 0, {0.0f, 7.0f, 0.0f});
   s.camera.move = {0.6f, 0.0f, -0.4f};
   s.camera.move_frames = 4;
+  return s;
+}
+
+TEST_F(ShadowCache, AWalkingCameraAndMovingCastersChangeNoPixel) {
+  scene::Scene s = rolling_turning_walking();
   const Totals t = expect_identical(
       s, 9,
       refit_reload_and_change(),
@@ -248,9 +254,7 @@ TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameShadows) {
     scene::Scene s = small(name);
     s.camera.move = {1.5f, 0.0f, -1.0f};
     s.camera.move_frames = 6;
-    render::RendererOptions copy = scrolling();
-    copy.sun_window = render::RendererOptions::SunWindow::copy;
-    render::Renderer a(ctx(), s, copy), b(ctx(), s, in_place());
+    render::Renderer a(ctx(), s, scrolling()), b(ctx(), s, in_place());
     for (uint32_t k = 0; k < 5; ++k) {
       SCOPED_TRACE("frame " + std::to_string(k));
       a.render(k);
@@ -275,11 +279,7 @@ TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameShadows) {
 // layout) takes the strips it newly drew, and the moving casters over a restored copy where they
 // are. Cache on and off, the same maps and image at every frame.
 TEST_F(ShadowCache, ReadInPlaceMovingCastersAndAWalkChangeNoPixel) {
-  scene::Scene s = filled("default");
-  make_move(s, 3, {2.0f, 0.0f, 0.0f}, 3);
-  make_move(s, 2, {}, 0, {0.0f, 7.0f, 0.0f});
-  s.camera.move = {0.6f, 0.0f, -0.4f};
-  s.camera.move_frames = 4;
+  scene::Scene s = rolling_turning_walking();
   const Totals t = expect_identical(
       s, 9,
       {{4, [](render::Renderer& r) { scene::set_param(r.scene(), "shadows.max_distance", "30"); }},
@@ -360,14 +360,8 @@ TEST_F(ShadowCache, ReadInPlaceACasterTheCascadesScrollAcrossIsDrawnIntoTheirStr
 // of a texel may differ (that is why a scrolled copy is no redraw, shadow_maps.cpp); a texel
 // drawn by one caster and not the other (a misplaced window) differs by far more.
 TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameCascadesWithMovingCasters) {
-  scene::Scene s = filled("default");
-  make_move(s, 3, {2.0f, 0.0f, 0.0f}, 3);
-  make_move(s, 2, {}, 0, {0.0f, 7.0f, 0.0f});
-  s.camera.move = {0.6f, 0.0f, -0.4f};
-  s.camera.move_frames = 4;
-  render::RendererOptions copy = scrolling();
-  copy.sun_window = render::RendererOptions::SunWindow::copy;
-  render::Renderer a(ctx(), s, copy), b(ctx(), s, in_place());
+  scene::Scene s = rolling_turning_walking();
+  render::Renderer a(ctx(), s, scrolling()), b(ctx(), s, in_place());
   for (uint32_t k = 0; k < 6; ++k) {
     SCOPED_TRACE("frame " + std::to_string(k));
     a.render(k);
