@@ -7,6 +7,7 @@ packages=(
   mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers vulkan-tools
   libglm-dev libglfw3-dev libgtest-dev libgmock-dev xvfb libstb-dev
   libtomlplusplus-dev libtinyobjloader-dev glmark2-data libimgui-dev libembree-dev libpng-dev
+  libmeshoptimizer-dev
   libcli11-dev
   python3 python3-matplotlib python3-pil python3-optuna python3-distributed lcov
   chromium chromium-driver python3-selenium cmark-gfm

@@ -450,8 +450,8 @@ int run(int argc, char** argv) {
   std::vector<std::string> order;
   // What each frame drew into the shadow maps (shadows.cache), for shadow_maps.csv.
   std::ostringstream maps_csv;
-  maps_csv << "frame,layers,drawn,scrolled,moving_drawn,texels_drawn\n";
-  std::vector<double> texels_per_frame;
+  maps_csv << "frame,layers,drawn,scrolled,moving_drawn,texels_drawn,triangles_drawn\n";
+  std::vector<double> texels_per_frame, triangles_per_frame;
   {
     const penumbra::gpu::ExclusiveGpu alone;
     for (uint32_t f = 0; f < frames; ++f) {
@@ -462,8 +462,9 @@ int run(int argc, char** argv) {
       }
       const auto& c = renderer.shadow_cache_stats();
       maps_csv << f << ',' << c.layers << ',' << c.drawn << ',' << c.scrolled << ','
-               << c.moving_drawn << ',' << c.texels_drawn << "\n";
+               << c.moving_drawn << ',' << c.texels_drawn << ',' << c.triangles_drawn << "\n";
       texels_per_frame.push_back(double(c.texels_drawn));
+      triangles_per_frame.push_back(double(c.triangles_drawn));
     }
   }
   std::vector<std::string> written;
@@ -502,9 +503,13 @@ int run(int argc, char** argv) {
   }
   std::printf("  %-22s %9.3f ms\n", "total", total);
   if (renderer.shadow_cache_stats().layers > 0)
-    std::printf("shadow maps: %.2f Mtexels drawn per frame (median; frame 0: %.2f), %s\n",
-                penumbra::runtime::median(texels_per_frame) * 1e-6, texels_per_frame.front() * 1e-6,
-                scene.shadows.cache ? "cached (shadows.cache)" : "every layer every frame");
+    std::printf(
+        "shadow maps: %.2f Mtexels and %.3f Mtriangles drawn per frame (median; frame 0: %.2f "
+        "and %.3f), %s\n",
+        penumbra::runtime::median(texels_per_frame) * 1e-6,
+        penumbra::runtime::median(triangles_per_frame) * 1e-6, texels_per_frame.front() * 1e-6,
+        triangles_per_frame.front() * 1e-6,
+        scene.shadows.cache ? "cached (shadows.cache)" : "every layer every frame");
   penumbra::write_file_atomic(out / "timings.csv", csv.str());
   penumbra::write_file_atomic(out / "shadow_maps.csv", maps_csv.str());
   std::printf(

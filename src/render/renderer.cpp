@@ -164,6 +164,14 @@ struct Renderer::Impl {
                                 VK_BUFFER_USAGE_INDEX_BUFFER_BIT, gpu::MemoryUse::device);
         g.indices.write(std::as_bytes(std::span(m.indices)));
         g.index_count = static_cast<uint32_t>(m.indices.size());
+        ClusteredMesh c = cluster_triangles(m.vertices, m.indices);
+        g.clusters = std::move(c.clusters);
+        if (g.clusters.size() > 1) {
+          g.cluster_indices = gpu::Buffer(ctx, c.indices.size() * sizeof(uint32_t),
+                                          VK_BUFFER_USAGE_INDEX_BUFFER_BIT,
+                                          gpu::MemoryUse::device);
+          g.cluster_indices.write(std::as_bytes(std::span(c.indices)));
+        }
       }
       res.meshes.push_back(std::move(g));
     }

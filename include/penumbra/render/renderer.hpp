@@ -88,6 +88,9 @@ struct ShadowCacheStats {
   std::uint32_t scrolled = 0;      // cascades moved by whole texels: only the new strips drawn
   std::uint32_t moving_drawn = 0;  // restored from the still casters, the moving drawn over
   std::uint64_t texels_drawn = 0;  // texels drawn: whole layers, strips, layers with moving casters
+  // Caster triangles submitted to the maps (a layer's, a strip's or a rectangle's draws, each
+  // whole where it is scissored): with the cache, only the clusters of a mesh that can reach.
+  std::uint64_t triangles_drawn = 0;
 };
 
 struct PassTiming {

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "../graph.hpp"
+#include "../clusters.hpp"
 
 namespace penumbra::render::passes {
 
@@ -34,6 +35,18 @@ inline constexpr VkFormat kVisibilityFormat = VK_FORMAT_R32G32B32A32_SFLOAT;
 struct GpuMesh {
   gpu::Buffer vertices, indices;
   uint32_t index_count = 0;
+  // The shadow maps' draws: the triangles in clusters (clusters.hpp), from their own index
+  // buffer where there is more than one cluster (else from `indices`).
+  gpu::Buffer cluster_indices;
+  std::vector<Cluster> clusters;
+  const gpu::Buffer& caster_indices() const {
+    return cluster_indices.handle() != VK_NULL_HANDLE ? cluster_indices : indices;
+  }
+};
+
+// A range of a mesh's caster indices (GpuMesh::caster_indices): some of its clusters.
+struct IndexRange {
+  uint32_t first = 0, count = 0;
 };
 
 // What every pass builds from and records against.
@@ -148,11 +161,16 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
 enum class Casters { all, still, moving };
 // The shadow-map casters (Draw::in_maps) of `which`, each with its model from `models` (the
 // draw's world transform rebased on the map's anchor) instead of the camera-relative one;
-// with `take`, only the draws whose entry is non-zero.
-void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
-                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
-                  const std::vector<glm::mat4>& models, Casters which,
-                  const std::vector<uint8_t>* take = nullptr);
+// with `parts`, only the draws it takes, each whole from its own indices or in the ranges of
+// its caster indices (clusters) listed there. Returns the indices drawn.
+struct CasterParts {
+  std::vector<uint8_t> take;                     // per draw: drawn at all
+  std::vector<std::vector<IndexRange>> ranges;  // per draw; none: the mesh whole
+};
+uint64_t draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                      VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
+                      const std::vector<glm::mat4>& models, Casters which,
+                      const CasterParts* parts = nullptr);
 // A specialization constant a pass sets per frame: its constant_id, its name in the shader
 // (checked against the SPIR-V's reflection when the pipeline is made) and its value.
 struct SpecValue {

@@ -273,12 +273,15 @@ namespace {
 // (z: whether it casts, which the prepass marks for the contact pass; w: its mask texture).
 // Every draw layout has the mask set when the scene samples mask textures (the opaque pipelines
 // share the masked ones' fragment shaders, which declare it).
-template <class Take, class Model>
-void draw_list(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
-               VkPipeline opaque, VkPipeline masked, glm::uvec4 index, Take take, Model model) {
+// `parts(i)`: null for the mesh's own indices whole, else ranges of its caster indices.
+template <class Take, class Model, class Parts>
+uint64_t draw_list(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+               VkPipeline opaque, VkPipeline masked, glm::uvec4 index, Take take, Model model,
+               Parts parts) {
   if (r.mask_set != VK_NULL_HANDLE)
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, layout.handle(), 1, 1,
                             &r.mask_set, 0, nullptr);
+  uint64_t indices = 0;
   for (int pass = 0; pass < 2; ++pass) {
     VkPipeline p = pass == 0 ? opaque : masked;
     if (p == VK_NULL_HANDLE) continue;
@@ -299,10 +302,21 @@ void draw_list(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout
       VkDeviceSize offset = 0;
       VkBuffer vb = m.vertices.handle();
       vkCmdBindVertexBuffers(cmd, 0, 1, &vb, &offset);
-      vkCmdBindIndexBuffer(cmd, m.indices.handle(), 0, VK_INDEX_TYPE_UINT32);
-      vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+      const std::vector<IndexRange>* ranges = parts(i);
+      vkCmdBindIndexBuffer(cmd, ranges ? m.caster_indices().handle() : m.indices.handle(), 0,
+                           VK_INDEX_TYPE_UINT32);
+      if (!ranges) {
+        vkCmdDrawIndexed(cmd, m.index_count, 1, 0, 0, 0);
+        indices += m.index_count;
+      } else {
+        for (const IndexRange& range : *ranges) {
+          vkCmdDrawIndexed(cmd, range.count, 1, range.first, 0, 0);
+          indices += range.count;
+        }
+      }
     }
   }
+  return indices;
 }
 
 }  // namespace
@@ -312,20 +326,24 @@ void draw_meshes(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayo
   draw_list(
       cmd, r, layout, opaque, masked, index,
       [casters_only](size_t, const Draw& d) { return !casters_only || d.in_maps; },
-      [](size_t, const Draw& d) { return d.push.model; });
+      [](size_t, const Draw& d) { return d.push.model; },
+      [](size_t) -> const std::vector<IndexRange>* { return nullptr; });
 }
 
-void draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
-                  VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
-                  const std::vector<glm::mat4>& models, Casters which,
-                  const std::vector<uint8_t>* take) {
-  draw_list(
+uint64_t draw_casters(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
+                      VkPipeline opaque, VkPipeline masked, glm::uvec4 index,
+                      const std::vector<glm::mat4>& models, Casters which,
+                      const CasterParts* parts) {
+  return draw_list(
       cmd, r, layout, opaque, masked, index,
-      [which, take](size_t i, const Draw& d) {
-        if (!d.in_maps || (take && !(*take)[i])) return false;
+      [which, parts](size_t i, const Draw& d) {
+        if (!d.in_maps || (parts && !parts->take[i])) return false;
         return which == Casters::all || d.moves == (which == Casters::moving);
       },
-      [&models](size_t i, const Draw&) { return models[i]; });
+      [&models](size_t i, const Draw&) { return models[i]; },
+      [parts](size_t i) -> const std::vector<IndexRange>* {
+        return parts && !parts->ranges[i].empty() ? &parts->ranges[i] : nullptr;
+      });
 }
 
 void begin_rendering(VkCommandBuffer cmd, const FrameResources& r, uint32_t w, uint32_t h,

@@ -16,7 +16,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
       glm::ivec2 offset;           // the grid texel at layer texel 0 of the draw
       glm::ivec2 grid_lo, grid_hi;  // the rectangle in grid texels
     };
-    const auto draw = [&r, &v](VkCommandBuffer cmd, gpu::Image& target, uint32_t l,
+    const auto draw = [this, &r, &v](VkCommandBuffer cmd, gpu::Image& target, uint32_t l,
                                      Casters which, const std::vector<Area>& areas, bool clear) {
       const gpu::GraphicsPipeline* masked = v.caster_bias ? v.masked.get() : v.opaque.get();
       const uint32_t side = target.desc().width;
@@ -48,23 +48,46 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
         vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_GRAPHICS, v.layout->handle(), 0, 1,
                                 &v.set, 0, nullptr);
         const std::vector<glm::mat4>& models = v.models[v.slot(l)];
-        std::vector<uint8_t> take(models.size(), 1);
+        CasterParts parts;
+        parts.take.resize(models.size());
+        parts.ranges.resize(models.size());
         for (const Area& a : areas) {
           vkCmdSetScissor(cmd, 0, 1, &a.rect);
-          // A caster is drawn where its bounds can reach the rectangle.
-          for (size_t i = 0; i < take.size(); ++i) {
-            bool reaches = v.touches(r.packed, l, a.grid_lo, a.grid_hi, v.bounds[i]);
-            if (reaches && v.rect) {
-              const glm::ivec4 b = v.rect(r.packed, l, v.bounds[i]);
-              reaches = b.x < a.grid_hi.x && b.z > a.grid_lo.x && b.y < a.grid_hi.y &&
-                        b.w > a.grid_lo.y;
+          // A caster is drawn where its bounds can reach the rectangle; with the cache, a mesh
+          // of several clusters only in those whose own bounds can (in as few ranges as they
+          // make). Without the cache, whole meshes from their own indices: the reference the
+          // cache's tests compare with.
+          const auto reaches = [&](const scene::Bounds& b) {
+            if (!v.touches(r.packed, l, a.grid_lo, a.grid_hi, b)) return false;
+            if (!v.rect) return true;
+            const glm::ivec4 t = v.rect(r.packed, l, b);
+            return t.x < a.grid_hi.x && t.z > a.grid_lo.x && t.y < a.grid_hi.y &&
+                   t.w > a.grid_lo.y;
+          };
+          for (size_t i = 0; i < models.size(); ++i) {
+            std::vector<IndexRange>& ranges = parts.ranges[i];
+            ranges.clear();
+            parts.take[i] = reaches(v.bounds[i]) ? 1 : 0;
+            const std::vector<scene::Bounds>& cb = v.cluster_bounds[i];
+            if (!parts.take[i] || cb.empty()) continue;
+            const std::vector<Cluster>& clusters = r.meshes[r.packed.draws[i].mesh].clusters;
+            for (size_t c = 0; c < cb.size(); ++c) {
+              if (!reaches(cb[c])) continue;
+              const Cluster& k = clusters[c];
+              if (!ranges.empty() && ranges.back().first + ranges.back().count == k.first_index)
+                ranges.back().count += k.index_count;
+              else
+                ranges.push_back({k.first_index, k.index_count});
             }
-            take[i] = reaches ? 1 : 0;
+            parts.take[i] = ranges.empty() ? 0 : 1;
           }
           glm::uvec4 index = v.index(l);
           if (v.grid()) index.y = uint32_t(a.offset.x) | (uint32_t(a.offset.y) << 16);
-          draw_casters(cmd, r, *v.layout, v.opaque->handle(),
-                       masked ? masked->handle() : VK_NULL_HANDLE, index, models, which, &take);
+          stats_.triangles_drawn +=
+              draw_casters(cmd, r, *v.layout, v.opaque->handle(),
+                           masked ? masked->handle() : VK_NULL_HANDLE, index, models, which,
+                           &parts) /
+              3;
         }
       }
       vkCmdEndRendering(cmd);
