@@ -154,4 +154,37 @@ IndexedAccess light_filter() {
   return indexed<filter_get<List>, filter_set<List>>();
 }
 
+// Object i's motion (Scene::instances; an object that does not move reads as moving by 0). Set
+// on a still object, it gives it a Motion from where it is.
+template <auto Field>
+std::optional<ParamValue> motion_get(const Scene& s, std::size_t i) {
+  if (i >= s.instances.size()) return std::nullopt;
+  return to_value(s.instances[i].motion.value_or(Motion{}).*Field);
+}
+template <auto Field>
+void motion_set(Scene& s, std::size_t i, const ParamValue& v) {
+  if (i >= s.instances.size())
+    throw Error("the scene '" + s.name + "' has " + std::to_string(s.instances.size()) +
+                " object" + (s.instances.size() == 1 ? "" : "s") + ": no object[" +
+                std::to_string(i) + "]");
+  Instance& instance = s.instances[i];
+  if (!instance.motion) {
+    Motion m;
+    m.base = instance.transform;
+    instance.motion = m;
+  }
+  auto& f = (*instance.motion).*Field;
+  f = from_value<std::remove_cvref_t<decltype(f)>>(v);
+}
+template <auto Field>
+IndexedAccess motion_field() {
+  return indexed<motion_get<Field>, motion_set<Field>>();
+}
+
+// Object i's motion against the rest of the scene, as text ("" when it holds): its move within
+// the still objects' bounds grown by its size, no spin on an analytic sphere (scene_objects.cpp;
+// the scene file and set_param both check them).
+std::string motion_bounds_violation(const Scene& scene, std::size_t i);
+std::string motion_spin_violation(const Scene& scene, std::size_t i);
+
 }  // namespace penumbra::scene::detail

@@ -250,6 +250,23 @@ std::vector<Param> make_params() {
               "stay cleared: lit), and the stored distance spans the objects in view and their "
               "possible casters instead of the light's `range`",
        .at = light_field<&S::points, &PointLight::fit_to_camera>()},
+      // [[object]]: the motion of every object, set as object[i].<name> (i counts the scene's
+      // objects in file order, a [[scatter]]'s after them); the other keys are the file's.
+      {.key = "object.move", .type = T::vec3, .range = closed(-1e5, 1e5), .apply = A::rebuild,
+       .doc = "metres: the object walks to `position` + `move` over `move_frames` frames and "
+              "back, the frame index driving it (the file needs `move_frames` with it); its "
+              "origin must stay within the still objects' bounds grown by its own size",
+       .at = motion_field<&Motion::move>(),
+       .check_at = motion_bounds_violation},
+      {.key = "object.move_frames", .type = T::integer, .range = closed(0, 1000000),
+       .apply = A::rebuild,
+       .doc = "frames from one end of the move to the other; 0: the object stays put",
+       .at = motion_field<&Motion::move_frames>()},
+      {.key = "object.spin", .type = T::vec3, .range = closed(-360.0, 360.0), .apply = A::rebuild,
+       .doc = "degrees per frame about the object's position (x, then y, then z, world axes); "
+              "not with `analytic_shadow`",
+       .at = motion_field<&Motion::spin>(),
+       .check_at = motion_spin_violation},
       // [shadows]
       {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,
        "how shadow maps are filtered (`evsm2`: the sun's cascades; a spot or point light takes "

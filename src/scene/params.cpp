@@ -129,13 +129,15 @@ KeyRef parse_key(std::string_view key) {
   const Param& p = param(key);
   const std::optional<Bracketed> b = bracketed(key);
   if (p.per_light() && !b)
-    throw Error("parameter '" + std::string(key) + "': name the light, e.g. " + light_key(p, 0));
+    throw Error("parameter '" + std::string(key) + "': name the " +
+                (p.table() == "object" ? "object" : "light") + ", e.g. " + light_key(p, 0));
   return {&p, b ? b->light : 0};
 }
 
 std::size_t light_count(const Scene& scene, std::string_view table) {
   if (table == "spot") return scene.spots.size();
   if (table == "point") return scene.points.size();
+  if (table == "object") return scene.instances.size();
   return 0;
 }
 
@@ -147,11 +149,14 @@ std::vector<std::string> scene_keys(const Scene& scene, bool settable_only) {
   std::vector<std::string> out;
   for (const Param& p : params())
     if (!p.per_light() && (!settable_only || p.settable())) out.emplace_back(p.key);
-  // The lights' keys after the singleton tables', light by light.
-  for (std::string_view table : {"spot", "point"})
-    for (std::size_t i = 0; i < light_count(scene, table); ++i)
+  // The lights' keys after the singleton tables', light by light; then the objects that move
+  // (any object's can be set: a scene of 200 asteroids does not list 600 keys).
+  for (std::string_view table : {"spot", "point", "object"})
+    for (std::size_t i = 0; i < light_count(scene, table); ++i) {
+      if (table == "object" && !scene.instances[i].motion) continue;
       for (const Param* p : params_of(table))
         if (!settable_only || p->settable()) out.push_back(light_key(*p, i));
+    }
   return out;
 }
 
@@ -271,6 +276,7 @@ std::string default_text(const Param& p) {
   defaults.sun = Sun{};
   defaults.spots.emplace_back();
   defaults.points.emplace_back();
+  defaults.instances.emplace_back();
   const auto v = p.get(defaults);
   return v ? format_value(p, *v) : "";
 }

@@ -6,6 +6,7 @@
 #include <map>
 #include <penumbra/core/file.hpp>
 
+#include "param_access.hpp"
 #include "toml_reader.hpp"
 
 #ifndef PENUMBRA_MODEL_DIR
@@ -340,48 +341,26 @@ void read_motion(const Reader& r, Instance& instance) {
   Motion m;
   m.base = instance.transform;
   m.move = r.vec3("move", glm::vec3(0.0f), ranges::closed(-1e5, 1e5));
-  m.move_frames = r.uint("move_frames", 0, 1, 1000000);
+  m.move_frames = r.uint("move_frames", 0, 0, 1000000);
   m.spin = r.vec3("spin", glm::vec3(0.0f), ranges::closed(-360.0, 360.0));
   if (r.has("move") && !r.has("move_frames"))
     r.fail_key("move", "needs move_frames, the frames from one end of the move to the other");
   if (r.has("move_frames") && !r.has("move"))
     r.fail_key("move_frames", "applies to a move; give move = [x, y, z] (metres)");
-  if (instance.analytic_sphere_radius > 0.0f && m.spin != glm::vec3(0.0f))
-    r.fail_key("spin", "an analytic sphere's shadow does not turn; spin it without "
-                       "analytic_shadow, or move it instead");
+  Scene one;
+  one.instances.push_back(instance);
+  one.instances.back().motion = m;
+  if (const std::string v = detail::motion_spin_violation(one, 0); !v.empty()) r.fail_key("spin", v);
   instance.motion = m;
 }
 
-// A moving object's origin must stay within the still ones' bounds, grown by the object's own
-// size on every side: an object that walks out of the scene is a typo in its move, and the sun's
-// cascades take their depth range from everything the objects pass through.
 void check_motion_bounds(const std::vector<const toml::table*>& objects, const Context& ctx,
                          const Scene& scene, std::size_t first_object) {
-  Bounds still;
-  for (const Instance& i : scene.instances)
-    if (!i.motion) still.extend(scene.motion_bounds(i));
   for (std::size_t k = 0; k < objects.size(); ++k) {
-    const Instance& inst = scene.instances[first_object + k];
-    if (!inst.motion || inst.motion->move_frames == 0) continue;
-    const Bounds rest = transform_bounds(scene.meshes[inst.mesh].bounds, inst.motion->base);
-    if (still.empty() || rest.empty()) continue;
-    const glm::vec3 s = rest.size();
-    const float grow = std::max({s.x, s.y, s.z});
-    const glm::vec3 lo = still.min - grow, hi = still.max + grow;
-    const glm::vec3 from(inst.motion->base[3]);
-    const glm::vec3 to = from + inst.motion->move;
-    const auto inside = [&](glm::vec3 p) {
-      return glm::all(glm::greaterThanEqual(p, lo)) && glm::all(glm::lessThanEqual(p, hi));
-    };
-    if (inside(from) && inside(to)) continue;
-    const auto fmt = [](glm::vec3 v) {
-      return "[" + format_number(v.x) + ", " + format_number(v.y) + ", " + format_number(v.z) + "]";
-    };
+    const std::string violation = detail::motion_bounds_violation(scene, first_object + k);
+    if (violation.empty()) continue;
     const Reader r(ctx, *objects[k], indexed_label("object", k));
-    r.fail_key("move", "the object's move takes it to " + fmt(to) +
-                           ", outside the still objects' bounds " + fmt(still.min) + " .. " +
-                           fmt(still.max) + " grown by its own size (" + format_number(grow) +
-                           " m)");
+    r.fail_key("move", violation);
   }
 }
 
@@ -556,3 +535,46 @@ void read_geometry(const Context& ctx, const toml::table& root, Scene& scene) {
 }
 
 }  // namespace penumbra::scene::file
+
+namespace penumbra::scene::detail {
+
+// A moving object's origin must stay within the still ones' bounds, grown by the object's own
+// size on every side: an object that walks out of the scene is a typo in its move, and the sun's
+// cascades take their depth range from everything the objects pass through.
+std::string motion_bounds_violation(const Scene& scene, std::size_t i) {
+  if (i >= scene.instances.size()) return "";
+  const Instance& inst = scene.instances[i];
+  if (!inst.motion || inst.motion->move_frames == 0 || inst.mesh >= scene.meshes.size())
+    return "";
+  Bounds still;
+  for (const Instance& other : scene.instances)
+    if (!other.motion) still.extend(scene.motion_bounds(other));
+  const Bounds rest = transform_bounds(scene.meshes[inst.mesh].bounds, inst.motion->base);
+  if (still.empty() || rest.empty()) return "";
+  const glm::vec3 s = rest.size();
+  const float grow = std::max({s.x, s.y, s.z});
+  const glm::vec3 lo = still.min - grow, hi = still.max + grow;
+  const glm::vec3 from(inst.motion->base[3]);
+  const glm::vec3 to = from + inst.motion->move;
+  const auto inside = [&](glm::vec3 p) {
+    return glm::all(glm::greaterThanEqual(p, lo)) && glm::all(glm::lessThanEqual(p, hi));
+  };
+  if (inside(from) && inside(to)) return "";
+  const auto fmt = [](glm::vec3 v) {
+    return "[" + file::format_number(v.x) + ", " + file::format_number(v.y) + ", " + file::format_number(v.z) + "]";
+  };
+  return "the object's move takes it to " + fmt(to) + ", outside the still objects' bounds " +
+         fmt(still.min) + " .. " + fmt(still.max) + " grown by its own size (" +
+         file::format_number(grow) + " m)";
+}
+
+std::string motion_spin_violation(const Scene& scene, std::size_t i) {
+  if (i >= scene.instances.size()) return "";
+  const Instance& inst = scene.instances[i];
+  if (inst.analytic_sphere_radius > 0.0f && inst.motion && inst.motion->spin != glm::vec3(0.0f))
+    return "an analytic sphere's shadow does not turn; spin it without analytic_shadow, or move "
+           "it instead";
+  return "";
+}
+
+}  // namespace penumbra::scene::detail

@@ -1098,8 +1098,11 @@ TEST(SceneFile, BadMotionIsAnErrorAtItsLine) {
   EXPECT_THAT(error_of(text), HasSubstr(at(text, "move =") + "[[object]] #2 move: needs move_frames"));
   text = box + "move_frames = 3\n";
   EXPECT_THAT(error_of(text), HasSubstr(at(text, "move_frames") + "[[object]] #2 move_frames: applies to a move"));
-  text = box + "move = [1, 0, 0]\nmove_frames = 0\n";
-  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move_frames") + "[[object]] #2 move_frames = 0 is out of range"));
+  text = box + "move = [1, 0, 0]\nmove_frames = -1\n";
+  EXPECT_THAT(error_of(text), HasSubstr(at(text, "move_frames") + "[[object]] #2 move_frames = -1 is out of range"));
+  // 0 frames, as for the camera's walk: the object stays put.
+  const Scene held = parse(box + "move = [1, 0, 0]\nmove_frames = 0\n");
+  EXPECT_EQ(held.instances[1].motion->transform_at(7), held.instances[1].motion->base);
   text = box + "move = [nan, 0, 0]\nmove_frames = 2\n";
   EXPECT_THAT(error_of(text), HasSubstr(at(text, "move =")));
   EXPECT_THAT(error_of(text), HasSubstr("not finite"));
