@@ -203,9 +203,9 @@ void Ui::panel(Session& session) {
       shown.back() += " " + key;
     };
     // What the scene models, grouped by light: the sun (its own rows and its map's), each spot
-    // and point light (its own rows), then the rows every shadowed light shares, the contact
-    // pass, the image and the camera. Rows that do nothing for this scene (scene::unused_reason)
-    // are listed apart, each with the reason.
+    // and point light (its own rows), each moving object (its motion, closed), then the rows
+    // every shadowed light shares, the contact pass, the image and the camera. Rows that do
+    // nothing for this scene (scene::unused_reason) are listed apart, each with the reason.
     ImGui::PushItemWidth(ImGui::GetWindowWidth() * 0.5f);
     const scene::Scene& sc = session.scene();
     std::vector<std::tuple<const scene::Param*, std::string, std::string>> unused;
@@ -235,6 +235,15 @@ void Ui::panel(Session& session) {
         for (const scene::Param* p : scene::params_of(table)) add(g, p, scene::light_key(*p, i), i);
         groups.push_back(std::move(g));
       }
+    }
+    // The objects that move, each its own closed group (a still object's motion is set with
+    // --set or the console: a scene of 200 asteroids would fill the panel).
+    for (std::size_t i = 0; i < scene::light_count(sc, "object"); ++i) {
+      if (!sc.instances[i].motion) continue;
+      Group g{"object[" + std::to_string(i) + "]", {}, false};
+      for (const scene::Param* p : scene::params_of("object"))
+        add(g, p, scene::light_key(*p, i), i);
+      groups.push_back(std::move(g));
     }
     groups.push_back(std::move(shared));
     for (const char* table : {"contact", "render", "camera"}) {

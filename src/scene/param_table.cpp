@@ -256,16 +256,16 @@ std::vector<Param> make_params() {
        .doc = "metres: the object walks to `position` + `move` over `move_frames` frames and "
               "back, the frame index driving it (the file needs `move_frames` with it); its "
               "origin must stay within the still objects' bounds grown by its own size",
-       .at = motion_field<&Motion::move>(),
+       .widget = slider(-10.0, 10.0), .at = motion_field<&Motion::move>(),
        .check_at = motion_bounds_violation},
       {.key = "object.move_frames", .type = T::integer, .range = closed(0, 1000000),
        .apply = A::rebuild,
        .doc = "frames from one end of the move to the other; 0: the object stays put",
-       .at = motion_field<&Motion::move_frames>()},
+       .widget = slider(0.0, 600.0), .at = motion_field<&Motion::move_frames>()},
       {.key = "object.spin", .type = T::vec3, .range = closed(-360.0, 360.0), .apply = A::rebuild,
        .doc = "degrees per frame about the object's position (x, then y, then z, world axes); "
               "not with `analytic_shadow`",
-       .at = motion_field<&Motion::spin>(),
+       .widget = slider(-10.0, 10.0), .at = motion_field<&Motion::spin>(),
        .check_at = motion_spin_violation},
       // [shadows]
       {"shadows.filter", T::choice, kAny, field<&S::shadows, &ShadowSettings::filter>(), A::frame,

@@ -406,6 +406,7 @@ std::string unused_reason(const Scene& scene, const Param& p, std::size_t light)
   if (p.per_light()) {
     if (light >= light_count(scene, table))
       return "no " + std::string(table) + "[" + std::to_string(light) + "]";
+    if (table == "object") return "";
     const bool shadows = table == "spot" ? scene.spots[light].shadows : scene.points[light].shadows;
     if (!shadows && (name == "resolution" || name == "filter" || name == "fit_to_camera"))
       return "the light casts no shadows";
