@@ -352,6 +352,20 @@ TEST_F(ShadowCache, ARectangleDrawsOnlyTheClustersOfAMeshThatCanReachIt) {
       << t.triangles_after_first << " of " << t.triangles_off_after_first << " triangles";
 }
 
+// Under a sun straight down, an unturned box's square across the light is its footprint: its
+// rectangle's last row and column are the texels its edges end in, which it covers where an
+// edge passes a texel's centre. The box, unturned, slides by fractions of a texel.
+TEST_F(ShadowCache, ARectangleHoldsTheTexelsATightCastersEdgesEndIn) {
+  scene::Scene s = filled("default");
+  scene::set_param(s, "sun.direction", "0,-1,0");
+  s.shadows.temporal = false;
+  s.instances.at(2).transform = glm::mat4(1.0f);
+  s.instances[2].transform[3] = glm::vec4(2.3f, 0.5f, -0.4f, 1.0f);
+  make_move(s, 2, {0.37f, 0.0f, 0.23f}, 7);
+  const Totals t = expect_identical(s, 8, {}, in_place());
+  EXPECT_GT(t.moving, 0u);
+}
+
 // A moving caster that holds still while the cascades scroll across it (the frame index held,
 // the camera walked by hand): where a strip newly reaches it, it is drawn there again.
 TEST_F(ShadowCache, ReadInPlaceACasterTheCascadesScrollAcrossIsDrawnIntoTheirStrips) {
