@@ -475,6 +475,53 @@ TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
   }
 }
 
+// Through a window (the sun's cascades read in place from their toroidal grid): the x pass on a
+// map rolled by o, given window o, returns what the plain pass returns on the map, bit for bit,
+// edges included (the reads clamp at the map's edges, then move by o), for offsets that wrap in
+// x, in y and in both.
+TEST_F(VsmTest, EvsmMomentBlurThroughAWindowReadsTheRolledMap) {
+  const int size = 12, layers = 2;
+  Rng rng(0xB10C);
+  std::vector<float> depth(size_t(size * size * layers));
+  for (float& d : depth) d = detail::uniform_scalar(rng, 0.05f, 0.95f);
+  FloatTextureDesc desc;
+  desc.width = desc.height = size;
+  desc.layers = layers;
+  desc.array = true;
+  ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, bool, bool)> plain(
+      "penumbra/vsm.glsl", "evsm2_moments_box_x");
+  plain.bind(0, make_float_texture(desc, depth));
+  for (const glm::ivec2 o : {glm::ivec2(5, 0), glm::ivec2(0, 7), glm::ivec2(11, 3)}) {
+    SCOPED_TRACE("window " + std::to_string(o.x) + ", " + std::to_string(o.y));
+    std::vector<float> rolled(depth.size());
+    for (int l = 0; l < layers; ++l)
+      for (int y = 0; y < size; ++y)
+        for (int x = 0; x < size; ++x)
+          rolled[size_t((l * size + (y + o.y) % size) * size + (x + o.x) % size)] =
+              depth[size_t((l * size + y) * size + x)];
+    ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, bool, bool,
+                             glm::ivec2)>
+        windowed("penumbra/vsm.glsl", "evsm2_moments_box_x");
+    windowed.bind(0, make_float_texture(desc, rolled));
+    std::vector<std::tuple<glm::ivec3, int32_t, int32_t, float, bool, bool>> cases;
+    std::vector<std::tuple<glm::ivec3, int32_t, int32_t, float, bool, bool, glm::ivec2>> wcases;
+    for (int radius : {0, 2})
+      for (int l = 0; l < layers; ++l)
+        for (int y = 0; y < size; ++y)
+          for (int x = 0; x < size; ++x) {
+            cases.emplace_back(glm::ivec3(x, y, l), radius, size, 20.0f, true, false);
+            wcases.emplace_back(glm::ivec3(x, y, l), radius, size, 20.0f, true, false, o);
+          }
+    const auto want = plain.run(cases), got = windowed.run(wcases);
+    ASSERT_EQ(want.size(), got.size());
+    for (size_t i = 0; i < want.size(); ++i) {
+      const glm::ivec3 t = std::get<0>(cases[i]);
+      ASSERT_EQ(got[i], want[i]) << "texel " << t.x << ", " << t.y << ", " << t.z << " radius "
+                                 << std::get<1>(cases[i]);
+    }
+  }
+}
+
 // A spot light's perspective depths are made linear before the warp: each texel's view depth
 // (from the projection's planes, written here from the projection rather than from depth.glsl)
 // mapped to [0, 1] between the planes, 1 - that under reverse-Z, then warped and box-averaged.

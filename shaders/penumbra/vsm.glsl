@@ -230,15 +230,25 @@ float evsm2_sample_shadow_cube_array(samplerCubeArray moment_cubes, vec3 dir, in
 
 // Returns the EVSM2 moments (E[w+], E[w+^2]) of a row of a depth-map array averaged over
 // 2 radius + 1 texels along x around texel t (xy texel, z layer), reads clamped to [0, size):
-// the first half of a separable box blur of the moments (evsm_moments.comp's first pass).
+// the first half of a separable box blur of the moments (evsm_moments.comp's first pass). With
+// `window`, the map is held as a window of a toroidal image (pcf.glsl's windowed lookups): map
+// texel t is image texel (t + window) mod size, window whole texels in [0, size); the reads
+// clamp at the map's edges before the offset.
 vec2 evsm2_moments_box_x(sampler2DArray depth_map, ivec3 t, int radius, int size, float exponent,
-                         bool reverse_z, bool fp16) {
+                         bool reverse_z, bool fp16, ivec2 window) {
   vec2 sum = vec2(0.0);
+  int y = (t.y + window.y) % size;
   for (int i = -radius; i <= radius; ++i) {
-    float d = texelFetch(depth_map, ivec3(clamp(t.x + i, 0, size - 1), t.y, t.z), 0).r;
+    int x = (clamp(t.x + i, 0, size - 1) + window.x) % size;
+    float d = texelFetch(depth_map, ivec3(x, y, t.z), 0).r;
     sum += evsm_moments(d, vec2(exponent, 0.0), reverse_z, fp16).xy;
   }
   return sum / float(2 * radius + 1);
+}
+
+vec2 evsm2_moments_box_x(sampler2DArray depth_map, ivec3 t, int radius, int size, float exponent,
+                         bool reverse_z, bool fp16) {
+  return evsm2_moments_box_x(depth_map, t, radius, size, exponent, reverse_z, fp16, ivec2(0));
 }
 
 // The same for a perspective depth-map array (a spot light's maps): each depth is first made

@@ -37,11 +37,10 @@ struct RendererOptions {
   // written into each frame, by a copy or by a draw that writes each texel's depth (the same
   // texels either way), or from the toroidal grid itself, in place, through a window offset and
   // repeat addressing (pcf.glsl's windowed lookups: nothing written but what the cascades newly
-  // reach and where moving casters were and are). In place needs a sun filter without EVSM2
-  // moments (they are made from a map); elsewhere it falls back to the copy. `automatic` reads
-  // in place where it can: on an H100 writing depth that is not a raster's output costs as
-  // much as drawing the casters, and on lavapipe the copies cost a walk 8 times what drawing the
-  // strips does (docs/performance.md).
+  // reach and where moving casters were and are; EVSM2's moments are made through the windows
+  // too). `automatic` reads in place: on an H100 writing depth that is not a raster's output
+  // costs as much as drawing the casters, and on lavapipe the copies cost a walk 8 times what
+  // drawing the strips does (docs/performance.md).
   enum class SunWindow { automatic, copy, draw, in_place };
   SunWindow sun_window = SunWindow::automatic;
   // Whether a sun cascade that moved by whole texels keeps what it holds and is drawn only where

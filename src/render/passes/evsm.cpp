@@ -17,6 +17,7 @@ constexpr VkShaderStageFlags kCompute = VK_SHADER_STAGE_COMPUTE_BIT;
 
 struct EvsmPush {
   glm::uvec4 params;  // x blur radius, y resolution
+  glm::ivec4 windows[4];  // the sun's layers' offsets on their grid, two a vec4
 };
 
 }  // namespace
@@ -33,6 +34,7 @@ EvsmPass::EvsmPass(FrameResources& r, ShadowMapPass& maps, MomentSource source) 
                 "images), which " +
                 r.ctx.info().name + " does not have");
   }
+  maps_ = &maps;
   gpu::Image& depths = sun ? maps.sun_map : spots ? maps.spot_maps : maps.point_cubes;
   depths_ = &depths;
   resolution_ = depths.desc().width;
@@ -113,8 +115,15 @@ std::vector<Step> EvsmPass::steps(FrameResources& r) {
   const std::string x_name = std::string(moments[int(source_)]) + "-x";
   // x: the depths warped into moments and blurred along x; y: blurred along y (and the mips).
   auto dispatch = [this, &r](VkCommandBuffer cmd, int p) {
-    const EvsmPush push{
-        glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)), resolution_, 0u, 0u)};
+    EvsmPush push{
+        glm::uvec4(uint32_t(std::clamp(r.scene.shadows.evsm_blur, 0, 8)), resolution_, 0u, 0u),
+        {}};
+    if (source_ == MomentSource::sun)
+      for (uint32_t l = 0; l < layers_ && l < 8; ++l) {
+        const glm::ivec2 w = maps_->sun_offset(l);
+        push.windows[l / 2][int(l % 2) * 2] = w.x;
+        push.windows[l / 2][int(l % 2) * 2 + 1] = w.y;
+      }
     const uint32_t groups = (resolution_ + 7) / 8;
     vkCmdBindPipeline(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, pass_[p]->handle());
     vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout_->handle(), 0, 1, &set_[p],

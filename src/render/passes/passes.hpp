@@ -290,6 +290,7 @@ class EvsmPass final : public Pass {
   VkDescriptorSet set_[2] = {VK_NULL_HANDLE, VK_NULL_HANDLE};
   gpu::Image moments_x_;
   gpu::Image* depths_ = nullptr;  // the shadow maps it reads
+  const ShadowMapPass* maps_ = nullptr;  // their windows (the sun read in place)
   gpu::Image* out_ = nullptr;     // the moments it writes
   uint32_t resolution_ = 0, layers_ = 0;
   MomentSource source_ = MomentSource::sun;

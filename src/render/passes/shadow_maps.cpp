@@ -8,10 +8,10 @@
 //
 // The sun's cascades are drawn into a grid: grid texel g of a cascade lives at texel g mod N of
 // its layer (toroidal), always drawn at the same window position (CascadeDrawGpu), so a cascade
-// that moved by whole texels keeps what it held and is drawn only where it newly reaches. On a
-// GPU the resolves read the grid in place (sun-shadow-map is the grid; SunWindow::in_place); a
-// CPU device draws it into an image of its own (sun-shadow-grid) and copies each cascade's
-// window [w, w + N) into the map in window order.
+// that moved by whole texels keeps what it held and is drawn only where it newly reaches. The
+// resolves and EVSM2's moments read the grid in place (sun-shadow-map is the grid;
+// SunWindow::in_place, the default); SunWindow::copy or draw draws it into an image of its own
+// (sun-shadow-grid) and writes each cascade's window [w, w + N) into the map in window order.
 //
 // The cache (shadows.cache) keys each layer on what its texels depend on: its grid or matrices,
 // every still caster with its transform and material, the depth convention and the pipelines'
@@ -274,8 +274,8 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
     using Scroll = RendererOptions::Scroll;
     using SunWindow = RendererOptions::SunWindow;
     const bool cpu = r.ctx.info().is_cpu;
-    // Read in place: no moments made from a map.
-    v.in_place = v.grid() && !r.req.sun_moments &&
+    // Read in place (EVSM2's moments too: EvsmPass reads each cascade through its window).
+    v.in_place = v.grid() &&
                  (r.sun_window == SunWindow::in_place || r.sun_window == SunWindow::automatic);
     v.scroll = v.grid() && (r.scroll_cascades == Scroll::on ||
                             (r.scroll_cascades == Scroll::automatic && (cpu || v.in_place)));
