@@ -162,7 +162,8 @@ float evsm4_shadow(vec4 moments, float receiver_depth, vec2 exponents, float min
   return vsm_saturate_or_lit(vsm_reduce_light_bleeding(min(positive, negative), bleed_reduction));
 }
 
-// Returns true when coord (uv, depth) is finite with uv inside [0, 1]^2.
+// Returns true when coord (uv, depth) is finite with uv inside [0, 1]^2. (A device may flush a
+// negative denormal u or v to -0, which is inside.)
 bool vsm_coord_in_map(vec3 coord) {
   bool finite = penumbra_is_finite(coord.x) && penumbra_is_finite(coord.y) && penumbra_is_finite(coord.z);
   return finite && coord.x >= 0.0 && coord.x <= 1.0 && coord.y >= 0.0 && coord.y <= 1.0;
