@@ -409,18 +409,26 @@ TEST_F(VsmTest, HalfPlaneMomentTextureGivesKnownFactors) {
   }
 }
 
-// The evsm pass's separable blur (evsm2_moments_box_x, then moments_box_y) against a C++ model
-// in double on a random 2-layer depth map, every texel, radii 0 to 3: reads clamp at the edges,
-// the box is centred (a shift by one texel fails), and each pass averages 2 r + 1 taps.
-TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
-  const int size = 12, layers = 2;
-  Rng rng(0xB10B);
+// A size x size x layers depth-map array of random depths in [0.05, 0.95], and its texture
+// description.
+std::pair<std::vector<float>, FloatTextureDesc> random_depth_array(int size, int layers,
+                                                                   uint64_t seed) {
+  Rng rng(seed);
   std::vector<float> depth(size_t(size * size * layers));
   for (float& d : depth) d = detail::uniform_scalar(rng, 0.05f, 0.95f);
   FloatTextureDesc desc;
   desc.width = desc.height = size;
   desc.layers = layers;
   desc.array = true;
+  return {depth, desc};
+}
+
+// The evsm pass's separable blur (evsm2_moments_box_x, then moments_box_y) against a C++ model
+// in double on a random 2-layer depth map, every texel, radii 0 to 3: reads clamp at the edges,
+// the box is centred (a shift by one texel fails), and each pass averages 2 r + 1 taps.
+TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
+  const int size = 12, layers = 2;
+  const auto [depth, desc] = random_depth_array(size, layers, 0xB10B);
   ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, bool, bool)> box_x(
       "penumbra/vsm.glsl", "evsm2_moments_box_x");
   box_x.bind(0, make_float_texture(desc, depth));
@@ -481,13 +489,7 @@ TEST_F(VsmTest, EvsmMomentBlurIsACentredClampedBoxInBothPasses) {
 // x, in y and in both.
 TEST_F(VsmTest, EvsmMomentBlurThroughAWindowReadsTheRolledMap) {
   const int size = 12, layers = 2;
-  Rng rng(0xB10C);
-  std::vector<float> depth(size_t(size * size * layers));
-  for (float& d : depth) d = detail::uniform_scalar(rng, 0.05f, 0.95f);
-  FloatTextureDesc desc;
-  desc.width = desc.height = size;
-  desc.layers = layers;
-  desc.array = true;
+  const auto [depth, desc] = random_depth_array(size, layers, 0xB10C);
   ShaderFunction<glm::vec2(Sampler2DArray, glm::ivec3, int32_t, int32_t, float, bool, bool)> plain(
       "penumbra/vsm.glsl", "evsm2_moments_box_x");
   plain.bind(0, make_float_texture(desc, depth));
