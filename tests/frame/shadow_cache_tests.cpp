@@ -434,14 +434,15 @@ TEST_F(ShadowCache, ReadInPlaceEvsmMomentsAreTheCopiedMapsMoments) {
     render::Renderer copied(ctx(), s, scrolling()), in(ctx(), s, in_place());
     EXPECT_THAT(in.built().to_string(), ::testing::HasSubstr("read in place"));
     EXPECT_THAT(copied.built().to_string(), ::testing::Not(::testing::HasSubstr("read in place")));
-    for (uint32_t k = 0; k < 5; ++k) {
+    for (uint32_t k = 0; k < 5; ++k) {  // frame 4: cascades 0 and 2 scrolled apart in x and y
       SCOPED_TRACE("frame " + std::to_string(k));
       copied.render(k);
       in.render(k);
       EXPECT_TRUE(copied.read_rgba8() == in.read_rgba8()) << "the image differs";
       EXPECT_TRUE(copied.read_shadow_info() == in.read_shadow_info()) << "the sun's V differs";
     }
-    const Totals t = expect_identical(s, 6, {}, in_place());
+    if (mips) continue;  // the mips are made from the moments: the cache's part is the same
+    const Totals t = expect_identical(s, 5, {}, in_place());
     EXPECT_GT(t.scrolled, 0u);
     EXPECT_GT(t.moving, 0u);
   }
