@@ -257,6 +257,9 @@ class ShadowMapPass final : public Pass {
   bool cache_ = true;
   uint64_t generation_ = 0;
   ShadowCacheStats stats_;
+  // Per draw, its mesh's clusters' bounds this frame (none for a mesh of one cluster, and none
+  // without the cache); every view culls with them.
+  std::vector<std::vector<scene::Bounds>> cluster_bounds_;
   gpu::Sampler repeat_compare_, repeat_raw_;
 };
 

@@ -42,12 +42,13 @@ void ShadowMapPass::prepare(FrameResources& r) {
   stats_ = {};
   // Each caster's bounds this frame (the draws are the scene's instances, in order).
   const std::vector<scene::Bounds> bounds = r.scene.instance_world_bounds();
-  std::vector<std::vector<scene::Bounds>> cluster_bounds(f.draws.size());
+  // Each caster's clusters' bounds, shared by every view (none without the cache: whole meshes).
+  cluster_bounds_.assign(f.draws.size(), {});
   for (size_t i = 0; cache_ && i < f.draws.size() && i < r.scene.instances.size(); ++i) {
     const std::vector<Cluster>& clusters = r.meshes[f.draws[i].mesh].clusters;
     if (clusters.size() < 2 || !f.draws[i].in_maps) continue;
     for (const Cluster& c : clusters)
-      cluster_bounds[i].push_back(
+      cluster_bounds_[i].push_back(
           scene::transform_bounds(c.bounds, r.scene.instances[i].transform));
   }
   for (View& v : views_) {
@@ -55,7 +56,6 @@ void ShadowMapPass::prepare(FrameResources& r) {
     v.draw_ubo.write(std::span(packed.bytes));
     v.window = std::move(packed.windows);
     v.bounds = bounds;
-    v.cluster_bounds = cluster_bounds;
     v.models.assign(packed.anchors.size(), {});
     for (size_t s = 0; s < packed.anchors.size(); ++s) {
       v.models[s].resize(f.draws.size());

@@ -68,7 +68,7 @@ std::vector<Step> ShadowMapPass::steps(FrameResources& r) {
             std::vector<IndexRange>& ranges = parts.ranges[i];
             ranges.clear();
             parts.take[i] = reaches(v.bounds[i]) ? 1 : 0;
-            const std::vector<scene::Bounds>& cb = v.cluster_bounds[i];
+            const std::vector<scene::Bounds>& cb = cluster_bounds_[i];
             if (!parts.take[i] || cb.empty()) continue;
             const std::vector<Cluster>& clusters = r.meshes[r.packed.draws[i].mesh].clusters;
             for (size_t c = 0; c < cb.size(); ++c) {

@@ -103,8 +103,6 @@ struct ShadowMapPass::View {
   std::vector<glm::ivec2> base_window, window;
   std::vector<std::vector<glm::mat4>> models;  // per slot, per draw
   std::vector<scene::Bounds> bounds;           // per draw, this frame
-  // Per draw, its mesh's clusters' bounds this frame (none for a mesh of one cluster).
-  std::vector<std::vector<scene::Bounds>> cluster_bounds;
 };
 
 constexpr VkImageUsageFlags kMapUsage =
