@@ -146,10 +146,12 @@ struct Renderer::Impl {
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
     ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
-    if (!result.rebuilt.empty()) {
-      last_camera.reset();
+    if (!result.rebuilt.empty()) last_camera.reset();
+    // The maps' cache holds what the map programs drew: only their rebuild redraws every layer
+    // (a resolve's or the forward pass's edit keeps the maps, which those programs only read).
+    if (std::any_of(result.rebuilt.begin(), result.rebuilt.end(),
+                    [this](const std::string& p) { return shadow_maps->draws_maps(p); }))
       shadow_maps->invalidate();
-    }
     return result;
   }
 

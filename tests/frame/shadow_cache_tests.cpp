@@ -281,6 +281,32 @@ TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameShadows) {
   }
 }
 
+// A reload keeps the maps unless it rebuilds a program that draws them: an edit of a resolve, a
+// filter or the forward pass redraws no layer (the maps are what the cache-off renderer draws
+// anew), while an edit of a depth shader redraws every layer. One file per frame after the first.
+TEST_F(ShadowCache, AReloadRedrawsTheMapsOnlyWhenItRebuildsAProgramThatDrawsThem) {
+  struct Case {
+    std::string scene;
+    std::vector<std::string> keep, redraw;  // the files reloaded, in this order
+  };
+  const std::vector<Case> cases{
+      {"default", {"pcf.glsl", "forward.frag"}, {"shadow_masked.frag"}},
+      {"indoor", {"local_shadow_resolve.comp"}, {"point_depth.frag"}}};
+  for (const Case& c : cases) {
+    SCOPED_TRACE(c.scene);
+    const scene::Scene s = small(c.scene);
+    std::map<uint32_t, Event> events;
+    uint32_t k = 1;
+    for (const auto* files : {&c.keep, &c.redraw})
+      for (const std::string& f : *files)
+        events[k++] = [f](render::Renderer& r) { reload(r, f); };
+    const Totals t = expect_identical(s, k, events);
+    ASSERT_GT(t.layers, 0u);
+    // The first frame's layers, then every layer at each reload of a map program.
+    EXPECT_EQ(t.drawn, t.layers / k * (1 + uint32_t(c.redraw.size()))) << "of " << t.layers;
+  }
+}
+
 // Read in place with moving casters: the grid holds the still casters, the map (in the grid's
 // layout) takes the strips it newly drew, and the moving casters over a restored copy where they
 // are. Cache on and off, the same maps and image at every frame.

@@ -236,8 +236,12 @@ class ShadowMapPass final : public Pass {
   std::vector<Step> steps(FrameResources& r) override;
   // The light matrices of this frame, and which layers the cache draws.
   void prepare(FrameResources& r);
-  // Every layer is drawn in the next frame (a reload rebuilt a pipeline).
+  // Every layer is drawn in the next frame (a reload rebuilt a pipeline that draws the maps).
   void invalidate();
+  // Whether the program of this name draws the maps (their depth pipelines, and the grid's
+  // window pipeline): a reload that rebuilds one must invalidate the cache. A reload of any other
+  // program (a resolve, the forward pass) leaves every map as it was, bit for bit.
+  bool draws_maps(const std::string& program) const;
   const ShadowCacheStats& stats() const { return stats_; }
 
   gpu::Image sun_map, spot_maps, point_cubes;  // empty when not required
@@ -256,6 +260,7 @@ class ShadowMapPass final : public Pass {
   std::vector<View> views_;
   bool cache_ = true;
   uint64_t generation_ = 0;
+  std::vector<std::string> programs_;  // the programs this pass added (draws_maps)
   ShadowCacheStats stats_;
   // Per draw, its mesh's clusters' bounds this frame (none for a mesh of one cluster, and none
   // without the cache); every view culls with them.

@@ -136,6 +136,7 @@ ViewDraw pack_lights(const std::vector<Shadow>& shadows, size_t max, size_t laye
 }  // namespace
 
 ShadowMapPass::ShadowMapPass(FrameResources& r) {
+  const size_t first_program = r.report.pipelines.size();
   views_.reserve(3);  // the pipelines' create callbacks hold references into the views
   if (r.req.sun_shadows) {
     const uint32_t res = r.scene.shadows.resolution, n = r.req.cascades;
@@ -359,12 +360,18 @@ ShadowMapPass::ShadowMapPass(FrameResources& r) {
              : "; moving casters drawn again with the rest where they were and are") +
         " (" + mib + " beside the maps)");
   }
+  programs_.assign(r.report.pipelines.begin() + std::ptrdiff_t(first_program),
+                   r.report.pipelines.end());
 }
 
 ShadowMapPass::~ShadowMapPass() = default;
 
 void ShadowMapPass::invalidate() {
   ++generation_;
+}
+
+bool ShadowMapPass::draws_maps(const std::string& program) const {
+  return std::find(programs_.begin(), programs_.end(), program) != programs_.end();
 }
 
 glm::ivec2 ShadowMapPass::sun_offset(uint32_t c) const {
