@@ -422,6 +422,52 @@ TEST_F(CascadeTest, BlendToNextMatchesReference) {
                            [&](std::size_t i) { return format_tuple(cases[i]); });
 }
 
+// The two-vec4 forms (what the sun resolve calls with its block's members): the same
+// selection, blend and split as the reference, for every count, cascade and fraction, and the
+// same results as the array forms, bit for bit.
+TEST_F(CascadeTest, TwoVec4FormsMatchTheReferenceAndTheArrayForms) {
+  SCOPED_TRACE(seed_note());
+  ShaderFunction<int32_t(float, glm::vec4, glm::vec4, int32_t)> select(kCascade,
+                                                                      "select_cascade_by_depth");
+  ShaderFunction<float(float, glm::vec4, glm::vec4, int32_t, int32_t, float, float)> to_next(
+      kCascade, "cascade_blend_to_next");
+  ShaderFunction<float(glm::vec4, glm::vec4, int32_t)> split(kCascade, "cascade_split");
+  ShaderFunction<float(float, Splits, int32_t, int32_t, float, float)> to_next_array(
+      kCascade, "cascade_blend_to_next");
+  std::vector<std::tuple<float, glm::vec4, glm::vec4, int32_t>> selections;
+  std::vector<std::tuple<float, glm::vec4, glm::vec4, int32_t, int32_t, float, float>> blends;
+  std::vector<std::tuple<float, Splits, int32_t, int32_t, float, float>> array_blends;
+  std::vector<std::tuple<glm::vec4, glm::vec4, int32_t>> splits;
+  std::vector<int32_t> want_selection;
+  std::vector<float> want_blend, want_split;
+  for (int k = 0; k < 4000; ++k) {
+    const auto count = static_cast<int32_t>(1 + rng_.below(8));
+    const SplitSet s = random_splits(rng_, count, true);
+    const float depth = selection_depth(rng_, s);
+    const float fraction = random_fraction(rng_);
+    const int32_t selected = ref::select_cascade_by_depth(depth, s.splits, count);
+    const int32_t cascade = rng_.bernoulli(0.8) ? selected : uniform(-1, count)(rng_);
+    const auto i = static_cast<int32_t>(rng_.below(8));
+    selections.emplace_back(depth, s.splits[0], s.splits[1], count);
+    blends.emplace_back(depth, s.splits[0], s.splits[1], cascade, count, s.camera_near, fraction);
+    array_blends.emplace_back(depth, s.splits, cascade, count, s.camera_near, fraction);
+    splits.emplace_back(s.splits[0], s.splits[1], i);
+    want_selection.push_back(selected);
+    want_blend.push_back(static_cast<float>(
+        ref::cascade_blend_to_next(depth, s.splits, cascade, count, s.camera_near, fraction)));
+    want_split.push_back(s.splits[static_cast<std::size_t>(i / 4)][i % 4]);
+  }
+  PENUMBRA_EXPECT_ALL_NEAR(want_selection, select.run(selections), Tolerance::exact(),
+                           [&](std::size_t i) { return format_tuple(selections[i]); });
+  const auto got_blend = to_next.run(blends);
+  PENUMBRA_EXPECT_ALL_NEAR(want_blend, got_blend, kRampTolerance,
+                           [&](std::size_t i) { return format_tuple(blends[i]); });
+  PENUMBRA_EXPECT_ALL_NEAR(to_next_array.run(array_blends), got_blend, Tolerance::exact(),
+                           [&](std::size_t i) { return format_tuple(blends[i]); });
+  PENUMBRA_EXPECT_ALL_NEAR(want_split, split.run(splits), Tolerance::exact(),
+                           [&](std::size_t i) { return format_tuple(splits[i]); });
+}
+
 // ------------------------------------------------------------------------------------------
 // Distance fade
 

@@ -48,16 +48,30 @@ float cascade_split(vec4 splits[2], int i) {
   return splits[i >> 2][i & 3];
 }
 
+// Returns the same from the two vec4 of splits[2]: first = splits[0] (cascades 0-3), second =
+// splits[1] (4-7). The functions below take the splits in this form too: a caller reading them
+// from a uniform block passes its two members, and the driver sees no array copied by value and
+// indexed at run time. llvmpipe lowers such a copy into a local array on every lane; passing the
+// sun resolve's splits that way cost about 50 ms of LLVM on each new version of the resolve
+// (docs/hot-reload.md).
+float cascade_split(vec4 first, vec4 second, int i) {
+  vec4 four = i < 4 ? first : second;
+  return four[i & 3];
+}
+
 // Returns the first cascade in [0, count) whose far split is >= view_depth (a depth exactly at a
 // split belongs to the nearer cascade), or count when view_depth is beyond the last split or NaN.
 // count is clamped to [0, 8].
-int select_cascade_by_depth(float view_depth, vec4 splits[2], int count) {
+int select_cascade_by_depth(float view_depth, vec4 first, vec4 second, int count) {
   int n = clamp(count, 0, kCascadeMaxCount);
   if (penumbra_is_nan(view_depth)) return n;
   for (int i = 0; i < n; ++i) {
-    if (view_depth <= cascade_split(splits, i)) return i;
+    if (view_depth <= cascade_split(first, second, i)) return i;
   }
   return n;
+}
+int select_cascade_by_depth(float view_depth, vec4 splits[2], int count) {
+  return select_cascade_by_depth(view_depth, splits[0], splits[1], count);
 }
 
 // Returns the same as above for 1..4 cascades whose far splits are splits.x .. splits.w; count is
@@ -112,12 +126,18 @@ float cascade_blend_weight(float view_depth, float cascade_near, float cascade_f
 // whose near end is camera_near for cascade 0 and the previous split otherwise. 0 for the last
 // cascade (the distance fade takes over there) and for a cascade index outside [0, count - 1).
 // Blended visibility: mix(visibility[cascade], visibility[cascade + 1], weight).
-float cascade_blend_to_next(float view_depth, vec4 splits[2], int cascade, int count,
+float cascade_blend_to_next(float view_depth, vec4 first, vec4 second, int cascade, int count,
                             float camera_near, float band_fraction) {
   int n = clamp(count, 0, kCascadeMaxCount);
   if (cascade < 0 || cascade >= n - 1) return 0.0;
-  float near = cascade == 0 ? camera_near : cascade_split(splits, cascade - 1);
-  return cascade_blend_weight(view_depth, near, cascade_split(splits, cascade), band_fraction);
+  float near = cascade == 0 ? camera_near : cascade_split(first, second, cascade - 1);
+  return cascade_blend_weight(view_depth, near, cascade_split(first, second, cascade),
+                              band_fraction);
+}
+float cascade_blend_to_next(float view_depth, vec4 splits[2], int cascade, int count,
+                            float camera_near, float band_fraction) {
+  return cascade_blend_to_next(view_depth, splits[0], splits[1], cascade, count, camera_near,
+                               band_fraction);
 }
 
 // Returns how far shadows have faded to lit at view_depth, in [0, 1]: 0 (full shadow) up to

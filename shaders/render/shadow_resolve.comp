@@ -200,8 +200,10 @@ void main() {
   int count = int(shadow.counts.x);
   // Containment, and always for a clipmap (its levels are nested squares around the camera).
   bool by_containment = shadow.modes.x == 1u || shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP;
-  int c = by_containment ? select_cascade_containing(p, count)
-                         : select_cascade_by_depth(view_depth, shadow.splits, count);
+  // The splits go in as the block's two vec4, not as an array copied by value (cascade.glsl).
+  int c = by_containment
+              ? select_cascade_containing(p, count)
+              : select_cascade_by_depth(view_depth, shadow.splits[0], shadow.splits[1], count);
   // The surface's move across one pixel, on its tangent plane (the neighbours' rays through it,
   // capped at 64 pixels' worth where they graze it): evsm2 with mips reads that footprint.
   vec3 dpdx = vec3(0.0), dpdy = vec3(0.0);
@@ -220,7 +222,8 @@ void main() {
   } else if (c < count) {
     // Blending follows the view-distance slices; a cascade chosen by containment is used alone.
     float blend = by_containment ? 0.0
-                                 : cascade_blend_to_next(view_depth, shadow.splits, c, count,
+                                 : cascade_blend_to_next(view_depth, shadow.splits[0],
+                                                         shadow.splits[1], c, count,
                                                          shadow.selection.x, shadow.selection.y);
     // This cascade, then the next one where the two blend: one call site in a loop, so the
     // driver compiles the filter once, not twice (llvmpipe: 1.8 -> 1.15 s of LLVM unspecialized).

@@ -48,9 +48,19 @@ vec3 heat(float t) {  // 0 blue → 1 red
   return clamp(vec3(1.5 - abs(4.0 * t - 3.0), 1.5 - abs(4.0 * t - 2.0), 1.5 - abs(4.0 * t - 1.0)), 0.0, 1.0);
 }
 
-const vec3 kCascadeColors[8] = vec3[](vec3(1, 0.3, 0.3), vec3(0.3, 1, 0.3), vec3(0.3, 0.5, 1),
-                                      vec3(1, 1, 0.3), vec3(1, 0.3, 1), vec3(0.3, 1, 1),
-                                      vec3(1, 0.6, 0.2), vec3(0.7, 0.7, 0.7));
+// The cascades view's tint of cascade i (0-7). Selects, not a constant array indexed at run time:
+// llvmpipe compiles such an index into a gather on every lane, and this shader's two arrays cost
+// about 50 ms of LLVM on each new version of it (docs/hot-reload.md).
+vec3 cascade_color(int i) {
+  return i == 0 ? vec3(1, 0.3, 0.3)
+       : i == 1 ? vec3(0.3, 1, 0.3)
+       : i == 2 ? vec3(0.3, 0.5, 1)
+       : i == 3 ? vec3(1, 1, 0.3)
+       : i == 4 ? vec3(1, 0.3, 1)
+       : i == 5 ? vec3(0.3, 1, 1)
+       : i == 6 ? vec3(1, 0.6, 0.2)
+                : vec3(0.7, 0.7, 0.7);
+}
 
 void main() {
   ivec2 pixel = ivec2(gl_GlobalInvocationID.xy);
@@ -80,7 +90,7 @@ void main() {
 #endif
   if (view == kViewShadowFactor) out_rgb = vec3(info.r * local * contact);
   if (view == kViewCascades) {
-    vec3 tint = info.g >= 0.0 ? kCascadeColors[int(info.g) & 7] : vec3(1.0);
+    vec3 tint = info.g >= 0.0 ? cascade_color(int(info.g) & 7) : vec3(1.0);
     out_rgb = mix(out_rgb, tint * (0.3 + 0.7 * info.r * local), 0.6);
   }
   if (view == kViewContactMask) out_rgb = vec3(contact);
@@ -100,10 +110,11 @@ void main() {
     // redrawn_code): red drawn whole, yellow a strip a scrolled cascade newly reached, cyan
     // drawn again where moving casters were or are, the image in grey where the map was kept.
     float grey = dot(out_rgb, vec3(0.2126, 0.7152, 0.0722)) * 0.6;
-    const vec3 kRedrawnColors[4] = vec3[](vec3(grey), vec3(0.2, 0.9, 1.0), vec3(1.0, 0.9, 0.2),
-                                          vec3(1.0, 0.25, 0.2));
     int code = info.g >= 0.0 ? clamp(int(info.b + 0.5), 0, 3) : 0;
-    out_rgb = code == 0 ? vec3(grey) : mix(vec3(grey), kRedrawnColors[code], 0.7);
+    vec3 tint = code == 1   ? vec3(0.2, 0.9, 1.0)
+                : code == 2 ? vec3(1.0, 0.9, 0.2)
+                            : vec3(1.0, 0.25, 0.2);
+    out_rgb = code == 0 ? vec3(grey) : mix(vec3(grey), tint, 0.7);
   }
   imageStore(ldr, pixel, vec4(out_rgb, 1.0));
 }
