@@ -146,10 +146,16 @@ struct Renderer::Impl {
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
     ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
-    if (!result.rebuilt.empty()) last_camera.reset();
-    // The maps' cache holds what the map programs drew: only their rebuild redraws every layer
-    // (a resolve's or the forward pass's edit keeps the maps, which those programs only read).
-    if (std::any_of(result.rebuilt.begin(), result.rebuilt.end(),
+    // The programs with new code (one whose SPIR-V did not change keeps its pipelines).
+    std::vector<std::string> new_code;
+    for (const std::string& p : result.rebuilt)
+      if (std::find(result.same_spirv.begin(), result.same_spirv.end(), p) ==
+          result.same_spirv.end())
+        new_code.push_back(p);
+    if (!new_code.empty()) last_camera.reset();
+    // The maps' cache holds what the map programs drew: only new code of theirs redraws every
+    // layer (a resolve's or the forward pass's edit keeps the maps, which those programs read).
+    if (std::any_of(new_code.begin(), new_code.end(),
                     [this](const std::string& p) { return shadow_maps->draws_maps(p); }))
       shadow_maps->invalidate();
     return result;

@@ -227,11 +227,18 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     }
   });
   // 2. Make the pipelines of the programs that compiled and kept their interface, in parallel.
+  // A program whose SPIR-V did not change (a comment, or code it does not call) keeps its
+  // pipelines: they are what the new code would make, and the driver is not asked again (on
+  // lavapipe that costs a compile at the next use even when its cache answers).
   const bool compiled = std::all_of(pending.begin(), pending.end(),
                                     [](const Pending& n) { return n.error.empty(); });
   if (compiled) {
     parallel_for(pending.size(), [&](size_t i) {
       Pending& next = pending[i];
+      if (next.spirv == next.program->current) {
+        next.install = [] {};
+        return;
+      }
       try {
         next.install = next.program->prepare(next.spirv);
       } catch (const std::exception& e) {
@@ -252,7 +259,10 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   }
 
   // 3. Swap them all in (the GPU idle); if an install fails, put back those already installed.
-  if (!pending.empty() && before_first_create) before_first_create();
+  const bool any_new = std::any_of(pending.begin(), pending.end(), [](const Pending& n) {
+    return n.spirv != n.program->current;
+  });
+  if (any_new && before_first_create) before_first_create();
   for (size_t i = 0; i < pending.size(); ++i) {
     Program& p = *pending[i].program;
     try {

@@ -8,6 +8,7 @@
 
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <functional>
 #include <limits>
 #include <map>
@@ -18,6 +19,8 @@
 #include <penumbra/scene/scene.hpp>
 #include <penumbra/testing/gpu_test.hpp>
 #include <string>
+
+#include "../runtime/temp_tree.hpp"
 
 namespace penumbra {
 namespace {
@@ -281,28 +284,55 @@ TEST_F(ShadowCache, ReadInPlaceOrFromTheMapTheSameShadows) {
   }
 }
 
-// A reload keeps the maps unless it rebuilds a program that draws them: an edit of a resolve, a
-// filter or the forward pass redraws no layer (the maps are what the cache-off renderer draws
-// anew), while an edit of a depth shader redraws every layer. One file per frame after the first.
-TEST_F(ShadowCache, AReloadRedrawsTheMapsOnlyWhenItRebuildsAProgramThatDrawsThem) {
+// Replaces `from` by `to` in a shader file of the renderer's tree where it is still there (the
+// event runs for both renderers, which share the tree), then reloads the file.
+Event edit(std::string name, std::string from, std::string to) {
+  return [=](render::Renderer& r) {
+    for (const auto& f : r.shader_files())
+      if (f.filename() == name) {
+        std::string text = testing::read_text(f);
+        if (const size_t at = text.find(from); at != std::string::npos) {
+          text.replace(at, from.size(), to);
+          std::ofstream(f) << text;
+        }
+      }
+    reload(r, name);
+  };
+}
+
+// A reload redraws the maps only where it gives a program that draws them new code. On a copy
+// of the shader tree: edits of a resolve, a filter and the forward pass (they read the maps) and
+// a comment in the depth shader (the same SPIR-V) redraw no layer, and the renderers with the
+// cache on and off agree at every frame; then an edit that moves the depths a map program writes
+// redraws every layer, or the kept maps would differ from the cache-off renderer's new ones.
+TEST_F(ShadowCache, AReloadRedrawsTheMapsOnlyWhenItGivesAProgramThatDrawsThemNewCode) {
   struct Case {
     std::string scene;
-    std::vector<std::string> keep, redraw;  // the files reloaded, in this order
+    std::vector<Event> keep, redraw;  // one per frame after the first, in this order
   };
   const std::vector<Case> cases{
-      {"default", {"pcf.glsl", "forward.frag"}, {"shadow_masked.frag"}},
-      {"indoor", {"local_shadow_resolve.comp"}, {"point_depth.frag"}}};
+      {"default",
+       {edit("pcf.glsl", "return clamp(radius, 0, kPcfMaxRadius);",
+             "return clamp(radius + 1, 0, kPcfMaxRadius);"),
+        edit("forward.frag", "(0.6 + 0.4 * n.y)", "(0.61 + 0.39 * n.y)"),
+        edit("shadow_depth.vert", "void main() {", "// a comment\nvoid main() {")},
+       {edit("shadow_depth.vert", "t.z, 1.0);", "t.z * 0.999, 1.0);")}},
+      {"indoor",
+       {edit("local_shadow_resolve.comp", "float rotation = 6.2831853 *",
+             "float rotation = 6.28319 *")},
+       {edit("point_depth.frag", "1.0 - t : t;", "1.0 - t * 0.999 : t * 0.999;")}}};
   for (const Case& c : cases) {
     SCOPED_TRACE(c.scene);
-    const scene::Scene s = small(c.scene);
+    testing::TempTree tree(true);
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
     std::map<uint32_t, Event> events;
     uint32_t k = 1;
-    for (const auto* files : {&c.keep, &c.redraw})
-      for (const std::string& f : *files)
-        events[k++] = [f](render::Renderer& r) { reload(r, f); };
-    const Totals t = expect_identical(s, k, events);
+    for (const auto* list : {&c.keep, &c.redraw})
+      for (const Event& e : *list) events[k++] = e;
+    const Totals t = expect_identical(small(c.scene), k, events, o);
     ASSERT_GT(t.layers, 0u);
-    // The first frame's layers, then every layer at each reload of a map program.
+    // The first frame's layers, then every layer at each new code of a map program.
     EXPECT_EQ(t.drawn, t.layers / k * (1 + uint32_t(c.redraw.size()))) << "of " << t.layers;
   }
 }

@@ -68,6 +68,7 @@ TEST(ProgramRegistry, RebuildsExactlyTheProgramsThatReadAChangedFile) {
   EXPECT_EQ(r.files().size(), 4u);
 
   int waits = 0;
+  t.write("lib/b.glsl", "float b() { return 2.5; }\n");  // new code: a pipeline is made
   auto res = r.reload({t.root / "lib/b.glsl"}, [&] { ++waits; });
   EXPECT_THAT(res.rebuilt, ElementsAre("two"));
   EXPECT_TRUE(res.ok());
@@ -80,20 +81,27 @@ TEST(ProgramRegistry, RebuildsExactlyTheProgramsThatReadAChangedFile) {
 }
 
 // A reload says which rebuilt programs got the SPIR-V they had: a comment, or a function they do
-// not call, changes no code and the driver's cache answers.
-TEST(ProgramRegistry, SaysWhichRebuiltProgramsKeptTheirSpirv) {
+// not call, changes no code, and such a program keeps its pipelines (none is made, the GPU is
+// not waited for).
+TEST(ProgramRegistry, SaysWhichRebuiltProgramsKeptTheirSpirvAndKeepsTheirPipelines) {
   Tree t;
   t.write("lib/a.glsl", "float a() { return 1.0; }\nfloat unused() { return 3.0; }\n");
   ProgramRegistry r(t.root);
-  r.add("one", {{"one.comp", {}}}, [](const Spirvs&) {});
+  int creates = 0, waits = 0;
+  r.add("one", {{"one.comp", {}}}, [&](const Spirvs&) { ++creates; });
+  EXPECT_EQ(creates, 1);
   t.write("lib/a.glsl", "// a comment\nfloat a() { return 1.0; }\nfloat unused() { return 4.0; }\n");
-  auto res = r.reload({t.root / "lib/a.glsl"});
+  auto res = r.reload({t.root / "lib/a.glsl"}, [&] { ++waits; });
   EXPECT_THAT(res.rebuilt, ElementsAre("one"));
   EXPECT_THAT(res.same_spirv, ElementsAre("one"));
+  EXPECT_EQ(creates, 1) << "the same SPIR-V made a pipeline again";
+  EXPECT_EQ(waits, 0);
   t.write("lib/a.glsl", "float a() { return 1.5; }\n");
-  res = r.reload({t.root / "lib/a.glsl"});
+  res = r.reload({t.root / "lib/a.glsl"}, [&] { ++waits; });
   EXPECT_THAT(res.rebuilt, ElementsAre("one"));
   EXPECT_THAT(res.same_spirv, IsEmpty()) << "a() returns another value";
+  EXPECT_EQ(creates, 2);
+  EXPECT_EQ(waits, 1);
 }
 
 // An overlay over a library (penumbra-view --shader-dir DIR over the installed shaders): stage
@@ -307,6 +315,7 @@ TEST(ProgramRegistry, IncludesFollowTheEditAndCreateErrorsAreReported) {
   EXPECT_THAT(r.programs_reading(t.root / "lib/a.glsl"), IsEmpty());
   EXPECT_THAT(r.programs_reading(t.root / "lib/b.glsl"), ElementsAre("one"));
   fail = true;
+  t.write("lib/b.glsl", "float b() { return 2.5; }\n");
   const auto res = r.reload({t.root / "lib/b.glsl"});
   EXPECT_THAT(res.failed, ElementsAre("one"));
   EXPECT_THAT(res.errors, ElementsAre("create failed"));

@@ -47,7 +47,7 @@ using Spirvs = std::vector<std::vector<uint32_t>>;
 struct ReloadResult {
   std::vector<std::string> rebuilt;
   // Of those rebuilt, the programs whose new SPIR-V is the old one's (a comment, or code of a
-  // function they do not call): the driver's shader cache answers for them.
+  // function they do not call): they keep the pipelines they had (nothing is made or swapped).
   std::vector<std::string> same_spirv;
   std::vector<std::string> failed;
   std::vector<std::string> held;
