@@ -4,6 +4,8 @@
 
 #include <bit>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <glm/glm.hpp>
 
 #include <penumbra/core/error.hpp>
@@ -13,6 +15,9 @@
 #include <penumbra/scene/params.hpp>
 #include <penumbra/scene/scene.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <string>
+
+#include "../runtime/temp_tree.hpp"
 
 namespace penumbra::reference {
 namespace {
@@ -257,15 +262,19 @@ TEST_F(TemporalAccumulationGpu, MatchesItsCppModelAlongAMovingCamera) {
 }
 
 // What resets the history: an edited parameter (the next frame equals a renderer's that never
-// had one), reset_history(), a reload that rebuilt a pipeline. Poisson turns its disk every
-// frame, so an accumulated frame differs from a fresh one.
+// had one), reset_history(), a reload that gave a pipeline new code; a reload whose SPIR-V did
+// not change keeps it. Poisson turns its disk every frame, so an accumulated frame differs from
+// a fresh one. On a copy of the shader tree, which the fresh renderers read too.
 TEST_F(TemporalAccumulationGpu, AParameterChangeAResetOrAReloadStartsAfresh) {
   scene::Scene s = indoor_temporal(0.2f);
   scene::set_param(s, "shadows.filter", "poisson");
-  render::Renderer a(ctx(), s, small());
+  testing::TempTree tree(true);
+  render::RendererOptions o = small();
+  o.shader_dir = tree.shaders();
+  render::Renderer a(ctx(), s, o);
   const uint32_t slot = render::spot_visibility_slot(0);
   auto fresh = [&](const scene::Scene& like, uint32_t frame) {
-    render::Renderer f(ctx(), like, small());
+    render::Renderer f(ctx(), like, o);
     f.render(frame);
     return f.read_visibility(slot);
   };
@@ -279,10 +288,23 @@ TEST_F(TemporalAccumulationGpu, AParameterChangeAResetOrAReloadStartsAfresh) {
   a.render(6);
   EXPECT_EQ(a.read_visibility(slot), fresh(a.scene(), 6)) << "after reset_history()";
   a.render(7);
-  const auto reloaded = a.reload({a.shader_files().front()});
-  ASSERT_FALSE(reloaded.rebuilt.empty());
+  const std::filesystem::path resolve = tree.shaders() / "render/local_shadow_resolve.comp";
+  const auto same = a.reload({resolve});  // the file as it was: the same SPIR-V
+  ASSERT_FALSE(same.rebuilt.empty());
+  EXPECT_EQ(same.same_spirv, same.rebuilt);
   a.render(8);
-  EXPECT_EQ(a.read_visibility(slot), fresh(a.scene(), 8)) << "after a reload";
+  EXPECT_NE(a.read_visibility(slot), fresh(a.scene(), 8)) << "a reload without new code";
+  std::string text = testing::read_text(resolve);
+  const std::string from = "float rotation = 6.2831853 *";
+  ASSERT_NE(text.find(from), std::string::npos);
+  text.replace(text.find(from), from.size(), "float rotation = 6.28319 *");
+  std::ofstream(resolve) << text;
+  const auto edited = a.reload({resolve});
+  ASSERT_TRUE(edited.ok());
+  ASSERT_FALSE(edited.rebuilt.empty());
+  EXPECT_TRUE(edited.same_spirv.empty());
+  a.render(9);
+  EXPECT_EQ(a.read_visibility(slot), fresh(a.scene(), 9)) << "after a reload with new code";
 }
 
 // What the pass is for: the indoor lights' flicker along 1 cm steps where the truth holds still
