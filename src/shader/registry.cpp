@@ -212,6 +212,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     std::set<fs::path> deps;
     std::string error;  // a compile error or the interface changes
     Install install;
+    bool same = false;  // the SPIR-V the running pipelines were made from: they are kept
   };
   std::vector<Pending> pending;
   for (auto& p : programs_)
@@ -221,6 +222,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     const Program& p = *next.program;
     try {
       next.spirv = compile(p.sources, &next.deps);
+      next.same = next.spirv == p.current;
       next.error = interface_report(p, next.spirv, next.deps);
     } catch (const std::exception& e) {  // a compile error, or a stage file that cannot be read
       next.error = e.what();
@@ -235,7 +237,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   if (compiled) {
     parallel_for(pending.size(), [&](size_t i) {
       Pending& next = pending[i];
-      if (next.spirv == next.program->current) {
+      if (next.same) {
         next.install = [] {};
         return;
       }
@@ -259,9 +261,8 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   }
 
   // 3. Swap them all in (the GPU idle); if an install fails, put back those already installed.
-  const bool any_new = std::any_of(pending.begin(), pending.end(), [](const Pending& n) {
-    return n.spirv != n.program->current;
-  });
+  const bool any_new =
+      std::any_of(pending.begin(), pending.end(), [](const Pending& n) { return !n.same; });
   if (any_new && before_first_create) before_first_create();
   for (size_t i = 0; i < pending.size(); ++i) {
     Program& p = *pending[i].program;
@@ -273,7 +274,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
       for (size_t k = 0; k < i; ++k) {
         Program& done = *pending[k].program;
         try {
-          done.prepare(done.current)();
+          if (!pending[k].same) done.prepare(done.current)();  // a kept one is still in place
           result.held.push_back(done.name);
         } catch (const Error& again) {
           result.failed.push_back(done.name);
@@ -286,7 +287,7 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
     }
   }
   for (Pending& n : pending) {
-    if (n.spirv == n.program->current) result.same_spirv.push_back(n.program->name);
+    if (n.same) result.same_spirv.push_back(n.program->name);
     n.program->current = std::move(n.spirv);
     n.program->dependencies = std::move(n.deps);
     result.rebuilt.push_back(n.program->name);

@@ -236,11 +236,11 @@ class ShadowMapPass final : public Pass {
   std::vector<Step> steps(FrameResources& r) override;
   // The light matrices of this frame, and which layers the cache draws.
   void prepare(FrameResources& r);
-  // Every layer is drawn in the next frame (a reload rebuilt a pipeline that draws the maps).
+  // Every layer is drawn in the next frame (a reload gave a program that draws the maps new code).
   void invalidate();
   // Whether the program of this name draws the maps (their depth pipelines, and the grid's
-  // window pipeline): a reload that rebuilds one must invalidate the cache. A reload of any other
-  // program (a resolve, the forward pass) leaves every map as it was, bit for bit.
+  // window pipeline): a reload that gives one new code must invalidate the cache. New code in any
+  // other program (a resolve, the forward pass) leaves every map as it was, bit for bit.
   bool draws_maps(const std::string& program) const;
   const ShadowCacheStats& stats() const { return stats_; }
 
