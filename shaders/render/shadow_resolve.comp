@@ -22,6 +22,13 @@ layout(local_size_x = 8, local_size_y = 8) in;
 const uint kFromFrame = 0xffffffffu;
 layout(constant_id = 0) const uint kSunFilter = kFromFrame;     // kFilterHard ... kFilterEvsm2
 layout(constant_id = 1) const uint kPenumbraView = kFromFrame;  // 1: the penumbra view, 0: not
+// How the cascade is chosen: kByDepth, kByContainment, or kClipmap (containment, no fade).
+// Selection by containment is half of llvmpipe's compile of a resolve that does not use it.
+layout(constant_id = 2) const uint kSelection = kFromFrame;
+layout(constant_id = 3) const uint kRedrawnView = kFromFrame;   // 1: the redrawn view, 0: not
+const uint kByDepth = 0u;
+const uint kByContainment = 1u;
+const uint kClipmap = 2u;
 
 layout(set = 0, binding = 0) uniform FrameBlock { FrameGpu frame; };
 layout(set = 0, binding = 1) uniform ShadowBlock { ShadowGpu shadow; };
@@ -58,6 +65,14 @@ FilterExtent sun_extent() {
 }
 bool penumbra_view() {
   return kPenumbraView == kFromFrame ? frame.mode.w == kViewPenumbra : kPenumbraView == 1u;
+}
+uint selection() {
+  if (kSelection != kFromFrame) return kSelection;
+  if (shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP) return kClipmap;
+  return shadow.modes.x == 1u ? kByContainment : kByDepth;
+}
+bool redrawn_view() {
+  return kRedrawnView == kFromFrame ? frame.mode.w == kViewRedrawn : kRedrawnView == 1u;
 }
 
 // Visibility from one cascade, with its penumbra width (texels) for the debug view. dpdx, dpdy:
@@ -199,7 +214,7 @@ void main() {
   float view_depth = dot(p - shadow.camera_position.xyz, shadow.camera_forward.xyz);
   int count = int(shadow.counts.x);
   // Containment, and always for a clipmap (its levels are nested squares around the camera).
-  bool by_containment = shadow.modes.x == 1u || shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP;
+  bool by_containment = selection() != kByDepth;
   // The splits go in as the block's two vec4, not as an array copied by value (cascade.glsl).
   int c = by_containment
               ? select_cascade_containing(p, count)
@@ -241,7 +256,7 @@ void main() {
     visibility = blend > 0.0 ? mix(first, next, blend) : first;
     texel_world = shadow.cascades[c].params.x;
     // A clipmap ends where its coarsest level does (c == count: lit), not at a view distance.
-    float fade = shadow.counts.w == PENUMBRA_SHADOW_LAYOUT_CLIPMAP
+    float fade = selection() == kClipmap
                      ? 0.0
                      : shadow_distance_fade(view_depth, shadow.selection.z, shadow.selection.w);
     visibility = mix(visibility, 1.0, fade);  // fade: how far shadows have faded to lit
@@ -249,6 +264,6 @@ void main() {
   // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.
   float pixel_world = view_depth * 2.0 * frame.projection.z * frame.viewport.w;
   float density = texel_world > 0.0 ? pixel_world / texel_world : 0.0;
-  if (frame.mode.w == kViewRedrawn) penumbra = c < count ? redrawn_code(c, p) : 0.0;
+  if (redrawn_view()) penumbra = c < count ? redrawn_code(c, p) : 0.0;
   imageStore(shadow_info, pixel, vec4(visibility, c < count ? float(c) : -1.0, penumbra, density));
 }

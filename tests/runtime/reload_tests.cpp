@@ -459,9 +459,10 @@ TEST_F(ReloadTest, SpecializedVariantsFollowTheFrameAndAReload) {
 }
 
 // Specialization must not change a pixel: for every filter (the scene's, which the local lights
-// without their own follow), lights with their own filters, and the debug views that change
-// what the resolves compute, the specialized renderer renders what the unspecialized one does
-// (every filter compiled, the choice read from the frame).
+// without their own follow), lights with their own filters, the debug views that change what
+// the resolves compute, and each way of choosing the sun's cascade (by view depth, by
+// containment, a clipmap's levels), the specialized renderer renders what the unspecialized one
+// does (every filter and selection compiled, the choice read from the frame).
 TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
   auto render_with = [&](const scene::Scene& sc, bool specialize) {
     render::RendererOptions o;
@@ -474,6 +475,7 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
   struct Case {
     std::string scene, filter, view;
     std::optional<scene::Filter> spot, point;  // the lights' own filters
+    std::vector<std::pair<std::string, std::string>> set = {};  // more parameters
   };
   std::vector<Case> cases{
       {"default", "hard", "lit", {}, {}},
@@ -484,7 +486,10 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
       {"indoor", "pcss", "penumbra", {}, {}},
       {"indoor", "poisson", "lit", {}, {}},
       {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
-      {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2}};
+      {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2},
+      {"default", "pcf", "lit", {}, {}, {{"shadows.selection", "containment"}}},
+      {"default", "hard", "cascades", {}, {}, {{"shadows.layout", "clipmap"}}},
+      {"default", "hard", "redrawn", {}, {}, {{"shadows.cache", "true"}}}};
   // Every other filter of the table, on the sun and on the local lights.
   for (const scene::FilterSpec& f : scene::filter_table()) {
     const bool listed = std::any_of(cases.begin(), cases.end(),
@@ -499,6 +504,7 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
     scene::set_param(sc, "render.view", c.view);
     for (auto& l : sc.spots) l.filter = c.spot;
     for (auto& l : sc.points) l.filter = c.point;
+    for (const auto& [key, value] : c.set) scene::set_param(sc, key, value);
     EXPECT_EQ(render_with(sc, true), render_with(sc, false))
         << c.scene << ", " << c.filter << ", " << c.view;
   }

@@ -65,13 +65,21 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
   return d;
 }
 
-// The sun resolve's specialization (shadow_resolve.comp): the frame's filter and whether the
-// penumbra view needs the PCSS estimate. Specialized, the driver compiles one filter, not all
-// five: on llvmpipe the default scene's resolve went from ~1.1 s of LLVM per new version to
-// ~0.3 s, and its frame time from 77 to 18 ms at 640x360 (docs/hot-reload.md).
+// The sun resolve's specialization (shadow_resolve.comp): the frame's filter, whether the
+// penumbra view needs the PCSS estimate, how the cascade is chosen and whether the redrawn view
+// is on. Specialized, the driver compiles one filter, not all five: on llvmpipe the default
+// scene's resolve went from ~1.1 s of LLVM per new version to ~0.3 s, and its frame time from
+// 77 to 18 ms at 640x360; without the selection by containment and the redrawn view that the
+// default scene does not use, a new version compiles in about 70 ms less (docs/hot-reload.md).
 SpecValues sun_resolve_specialization(const FrameResources& r) {
+  const auto& sh = r.scene.shadows;
+  const uint32_t selection = sh.layout == scene::ShadowLayout::clipmap                ? 2u
+                             : sh.selection == scene::CascadeSelection::containment ? 1u
+                                                                                    : 0u;
   return {{0, "kSunFilter", sun_filter_index(r.scene, r.req.sun_moments)},
-          {1, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u}};
+          {1, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u},
+          {2, "kSelection", selection},
+          {3, "kRedrawnView", r.scene.render.view == scene::DebugView::redrawn ? 1u : 0u}};
 }
 
 // The local resolve's specialization (local_shadow_resolve.comp): the filters the scene's spot
