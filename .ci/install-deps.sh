@@ -2,7 +2,7 @@
 # Installs every Debian package Penumbra needs. Idempotent; run as root on Debian 12.
 set -euo pipefail
 packages=(
-  build-essential cmake ninja-build pkg-config git clang-format
+  build-essential cmake ninja-build pkg-config git clang-format lld
   glslang-dev glslang-tools libspirv-cross-c-shared-dev spirv-tools
   mesa-vulkan-drivers libvulkan-dev vulkan-validationlayers vulkan-tools
   libglm-dev libglfw3-dev libgtest-dev libgmock-dev xvfb libstb-dev
