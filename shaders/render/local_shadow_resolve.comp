@@ -1,4 +1,5 @@
 #version 460
+#extension GL_EXT_control_flow_attributes : require
 // Spot and point light shadow resolve: per pixel and per shadowed local light, the world-unit
 // biases and the configured filter (hard, PCF, Poisson, PCSS), through the library in
 // penumbra/bias.glsl and penumbra/local_shadow.glsl, like the sun's resolve. Output rgba16f:
@@ -269,8 +270,11 @@ void main() {
   float rotation = 6.2831853 * interleaved_gradient_noise_temporal(vec2(pixel), frame.mode.x);
   // The debug data of the first shadowed light (the spots come first); the rest's is dropped.
   vec4 debug = vec4(-1.0, 0.0, 0.0, 0.0);
+  // Not unrolled: the drivers would unroll each loop to kMaxSpotLights (kMaxPointLights) copies
+  // of the light's biases and filter, and compile them all. llvmpipe compiled a new version of
+  // this shader in 500-650 ms unrolled, 200-260 ms not (docs/hot-reload.md).
 #if PENUMBRA_SPOT_SHADOWS > 0
-  for (int i = 0; i < int(frame.counts.x); ++i) {
+  [[dont_unroll]] for (int i = 0; i < int(frame.counts.x); ++i) {
     int map = int(frame.spots[i].params.y);
     if (map >= 0) {
       bool first = debug.w == 0.0;
@@ -282,7 +286,7 @@ void main() {
   }
 #endif
 #if PENUMBRA_POINT_SHADOWS > 0
-  for (int i = 0; i < int(frame.counts.y); ++i) {
+  [[dont_unroll]] for (int i = 0; i < int(frame.counts.y); ++i) {
     int map = int(frame.points[i].params.y);
     if (map >= 0) {
       bool first = debug.w == 0.0;
