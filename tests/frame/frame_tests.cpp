@@ -322,6 +322,33 @@ TEST_F(FrameTest, BuildsOnlyWhatTheSceneRequires) {
   }
 }
 
+// The local resolve's loops over the spot and the point lights are not unrolled
+// ([[dont_unroll]]): unrolled, a driver compiles one copy of a light's biases and filter per
+// light slot, and a new version of the shader took llvmpipe 500-650 ms to compile instead of
+// 200-260 (docs/hot-reload.md). Their SPIR-V loops must carry DontUnroll, and only those two.
+TEST_F(FrameTest, LocalResolveLightLoopsAreNotUnrolled) {
+  shader::Compiler compiler(shader::CompileOptions{{PENUMBRA_SHADER_DIR}, {}, false});
+  const std::filesystem::path file =
+      std::filesystem::path(PENUMBRA_SHADER_DIR) / "render/local_shadow_resolve.comp";
+  const std::vector<uint32_t> spirv =
+      compiler
+          .compile_file(file, {}, {{"PENUMBRA_SPOT_SHADOWS", "1"}, {"PENUMBRA_POINT_SHADOWS", "1"}})
+          .spirv;
+  constexpr uint32_t kOpLoopMerge = 246, kDontUnroll = 0x2;
+  int loops = 0, not_unrolled = 0;
+  for (size_t i = 5; i < spirv.size();) {  // past the header
+    const uint32_t words = spirv[i] >> 16, op = spirv[i] & 0xffffu;
+    ASSERT_GT(words, 0u) << "malformed SPIR-V at word " << i;
+    if (op == kOpLoopMerge) {
+      ++loops;
+      if ((spirv[i + 3] & kDontUnroll) != 0) ++not_unrolled;
+    }
+    i += words;
+  }
+  EXPECT_GE(loops, 2);
+  EXPECT_EQ(not_unrolled, 2) << "of " << loops << " loops";
+}
+
 TEST_F(FrameTest, FrameStructsMatchReflection) {
   shader::Compiler compiler(shader::CompileOptions{{PENUMBRA_SHADER_DIR}, {}, false});
   const auto spirv = compiler
