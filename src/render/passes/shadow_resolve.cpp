@@ -71,11 +71,13 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
 // scene's resolve went from ~1.1 s of LLVM per new version to ~0.3 s, and its frame time from
 // 77 to 18 ms at 640x360; without the selection by containment and the redrawn view that the
 // default scene does not use, a new version compiles in about 70 ms less (docs/hot-reload.md).
+// kSelection's values, as shadow_resolve.comp names them.
+constexpr uint32_t kByDepth = 0, kByContainment = 1, kClipmap = 2;
 SpecValues sun_resolve_specialization(const FrameResources& r) {
   const auto& sh = r.scene.shadows;
-  const uint32_t selection = sh.layout == scene::ShadowLayout::clipmap                ? 2u
-                             : sh.selection == scene::CascadeSelection::containment ? 1u
-                                                                                    : 0u;
+  const uint32_t selection = sh.layout == scene::ShadowLayout::clipmap                ? kClipmap
+                             : sh.selection == scene::CascadeSelection::containment ? kByContainment
+                                                                                    : kByDepth;
   return {{0, "kSunFilter", sun_filter_index(r.scene, r.req.sun_moments)},
           {1, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u},
           {2, "kSelection", selection},
