@@ -199,7 +199,17 @@ void Session::set(const std::string& key, const std::string& value) {
     const auto before = renderer_->scene().requirements();
     const std::string old = scene::get_param(renderer_->scene(), key);
     scene::set_param(renderer_->scene(), key, value);
-    if (renderer_->scene().requirements() == before) return;
+    if (renderer_->scene().requirements() == before) {
+      // A filter the resolves do not compile yet compiles them again (Renderer::prepare): when
+      // that fails, the key keeps its value and the running pipelines stay.
+      try {
+        renderer_->prepare();
+      } catch (const Error&) {
+        scene::set_param(renderer_->scene(), key, old);
+        throw;
+      }
+      return;
+    }
     try {
       rebuild(renderer_->scene(), width_, height_);
     } catch (const Error&) {

@@ -13,4 +13,13 @@ const uint kFilterEvsm2 = 4u;  // evsm2
 const uint kFilterVogel = 5u;  // vogel
 const uint kFilterCount = 6u;
 
+// The same numbers for #if: PENUMBRA_FILTERS_2D and PENUMBRA_FILTERS_CUBE (shadow_filter.glsl)
+// are bit sets of them.
+#define PENUMBRA_FILTER_HARD 0
+#define PENUMBRA_FILTER_PCF 1
+#define PENUMBRA_FILTER_PCSS 2
+#define PENUMBRA_FILTER_POISSON 3
+#define PENUMBRA_FILTER_EVSM2 4
+#define PENUMBRA_FILTER_VOGEL 5
+
 #endif

@@ -6,7 +6,13 @@
 //
 // `allowed` is a bit set of the filters the caller may ask for (1u << kFilterX): a resolve
 // specialized for its filters passes a constant, so the driver compiles only those cases.
-// Unknown or unallowed filters return 1 (lit). Pure: every map comes in as an argument. A
+// Unknown or unallowed filters return 1 (lit).
+//
+// PENUMBRA_FILTERS_2D and PENUMBRA_FILTERS_CUBE, when a stage defines them, are the same kind of
+// bit set for the preprocessor (1 << PENUMBRA_FILTER_X, filters.glsl): a case outside them is
+// not compiled at all, so the SPIR-V holds only the filters named there (and an edit of another
+// filter's file does not change it). A filter outside them returns 1 (lit), as one outside
+// `allowed` does. Undefined: every filter. Pure: every map comes in as an argument. A
 // caller without moments passes any map of the same type as `moments` and never asks for
 // evsm2.
 #ifndef PENUMBRA_SHADOW_FILTER_GLSL
@@ -19,6 +25,13 @@
 #include "penumbra/vsm.glsl"
 
 const uint kAllFilters = 0xffffffffu;
+
+#ifndef PENUMBRA_FILTERS_2D
+#define PENUMBRA_FILTERS_2D 0x7fffffff
+#endif
+#ifndef PENUMBRA_FILTERS_CUBE
+#define PENUMBRA_FILTERS_CUBE 0x7fffffff
+#endif
 
 bool filter_allowed(uint allowed, uint mode) {
   return mode < 32u && (allowed & (1u << mode)) != 0u;
@@ -92,16 +105,25 @@ struct ShadowLookup2D {
 float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compare_map,
                              sampler2DArray depth_map, sampler2DArray moments, ShadowLookup2D q,
                              vec4 window) {
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_HARD) & 1) != 0
   if (filter_allowed(allowed, kFilterHard) && mode == kFilterHard)
     return pcf_grid_array(compare_map, q.coord, q.layer, 0, q.texel, window);
+#endif
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_PCF) & 1) != 0
   if (filter_allowed(allowed, kFilterPcf) && mode == kFilterPcf)
     return pcf_grid_array(compare_map, q.coord, q.layer, q.pcf_radius, q.texel, window);
+#endif
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_POISSON) & 1) != 0
   if (filter_allowed(allowed, kFilterPoisson) && mode == kFilterPoisson)
     return pcf_poisson_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
                              q.texel, window);
+#endif
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_VOGEL) & 1) != 0
   if (filter_allowed(allowed, kFilterVogel) && mode == kFilterVogel)
     return pcf_vogel_array(compare_map, q.coord, q.layer, q.taps, q.disk_radius, q.rotation,
                            q.texel, window);
+#endif
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_EVSM2) & 1) != 0
   if (filter_allowed(allowed, kFilterEvsm2) && mode == kFilterEvsm2) {
     vec3 c = vec3(q.coord.xy, q.moments_depth);
     if (q.footprint)
@@ -111,6 +133,8 @@ float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compa
     return evsm2_sample_shadow_array(moments, c, q.layer, q.evsm.x, q.evsm.y, q.evsm.z,
                                      q.reverse_z, q.evsm.w != 0.0);
   }
+#endif
+#if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_PCSS) & 1) != 0
   if (filter_allowed(allowed, kFilterPcss) && mode == kFilterPcss) {
     if (q.perspective)
       return pcss_spot_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel,
@@ -119,6 +143,7 @@ float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compa
     return pcss_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel, q.pcss,
                              q.pcss_tier, q.rotation, q.reverse_z, window);
   }
+#endif
   return 1.0;
 }
 
@@ -150,20 +175,30 @@ struct ShadowLookupCube {
 float shadow_filter_cube_array(uint mode, uint allowed, samplerCubeArrayShadow compare_map,
                                samplerCubeArray depth_map, samplerCubeArray moments,
                                ShadowLookupCube q) {
+#if (((PENUMBRA_FILTERS_CUBE) >> PENUMBRA_FILTER_HARD) & 1) != 0
   if (filter_allowed(allowed, kFilterHard) && mode == kFilterHard)
     return pcf_cube_array(compare_map, q.dir, q.layer, q.ref, 0, q.resolution);
+#endif
+#if (((PENUMBRA_FILTERS_CUBE) >> PENUMBRA_FILTER_PCF) & 1) != 0
   if (filter_allowed(allowed, kFilterPcf) && mode == kFilterPcf)
     return pcf_cube_array(compare_map, q.dir, q.layer, q.ref, q.pcf_radius, q.resolution);
+#endif
+#if (((PENUMBRA_FILTERS_CUBE) >> PENUMBRA_FILTER_POISSON) & 1) != 0
   if (filter_allowed(allowed, kFilterPoisson) && mode == kFilterPoisson)
     return pcf_cube_vogel_array(compare_map, q.dir, q.layer, q.ref, q.taps, q.disk_radius,
                                 q.rotation, q.resolution);
+#endif
+#if (((PENUMBRA_FILTERS_CUBE) >> PENUMBRA_FILTER_EVSM2) & 1) != 0
   if (filter_allowed(allowed, kFilterEvsm2) && mode == kFilterEvsm2)
     return evsm2_sample_shadow_cube_array(moments, q.dir, q.layer, q.ref, q.evsm.x, q.evsm.y,
                                           q.evsm.z, q.reverse_z, q.evsm.w != 0.0);
+#endif
+#if (((PENUMBRA_FILTERS_CUBE) >> PENUMBRA_FILTER_PCSS) & 1) != 0
   if (filter_allowed(allowed, kFilterPcss) && mode == kFilterPcss)
     return pcss_cube_shadow_array(compare_map, depth_map, q.dir, q.layer, q.ref,
                                   q.receiver_distance, q.resolution, q.pcss_local, q.pcss_tier,
                                   q.rotation, q.reverse_z, q.plane_normal);
+#endif
   return 1.0;
 }
 

@@ -333,7 +333,11 @@ struct Renderer::Impl {
     pass_names = names;
   }
 
+  void prepare() {
+    for (const auto& f : res.before_frame) f();
+  }
   void render(uint32_t frame_index) {
+    prepare();
     update(frame_index);
     VkCommandBuffer cmd = recorder.begin();
     record(cmd);
@@ -382,6 +386,10 @@ Renderer::~Renderer() {
 
 void Renderer::render(uint32_t frame_index) {
   impl_->render(frame_index);
+}
+
+void Renderer::prepare() {
+  impl_->prepare();
 }
 
 void Renderer::reset_history() {

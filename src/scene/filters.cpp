@@ -2,6 +2,7 @@
 // side that depends on which filter a light uses.
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <penumbra/core/error.hpp>
@@ -137,7 +138,15 @@ std::string filters_glsl() {
   for (std::size_t i = 0; i < std::size(kTable); ++i)
     s += "const uint " + std::string(kTable[i].constant) + " = " + std::to_string(i) + "u;  // " +
          std::string(kTable[i].name) + "\n";
-  s += "const uint kFilterCount = " + std::to_string(std::size(kTable)) + "u;\n\n#endif\n";
+  s += "const uint kFilterCount = " + std::to_string(std::size(kTable)) + "u;\n\n";
+  s += "// The same numbers for #if: PENUMBRA_FILTERS_2D and PENUMBRA_FILTERS_CUBE (shadow_filter.glsl)\n"
+       "// are bit sets of them.\n";
+  for (std::size_t i = 0; i < std::size(kTable); ++i) {
+    std::string name(kTable[i].name);
+    for (char& c : name) c = char(std::toupper(static_cast<unsigned char>(c)));
+    s += "#define PENUMBRA_FILTER_" + name + " " + std::to_string(i) + "\n";
+  }
+  s += "\n#endif\n";
   return s;
 }
 

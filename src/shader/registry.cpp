@@ -312,6 +312,10 @@ std::vector<std::string> ProgramRegistry::programs_reading(const fs::path& file)
   return out;
 }
 
+void ProgramRegistry::remove(const std::string& name) {
+  std::erase_if(programs_, [&](const Program& p) { return p.name == name; });
+}
+
 std::vector<std::string> ProgramRegistry::names() const {
   std::vector<std::string> out;
   for (const auto& p : programs_) out.push_back(p.name);

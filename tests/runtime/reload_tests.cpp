@@ -458,6 +458,67 @@ TEST_F(ReloadTest, SpecializedVariantsFollowTheFrameAndAReload) {
   EXPECT_EQ(s->pixels(), fresh("pcf", "lit"));
 }
 
+// The resolves compile only the filters the scene's lights use (shadow_filter.glsl's
+// PENUMBRA_FILTERS_2D and _CUBE). On the default scene (hard), an edit of EVSM2's code changes no
+// SPIR-V, so no pipeline is made for it. A filter set between frames compiles the resolve again,
+// through Session::set and through a renderer's own scene(); a filter whose file does not
+// compile leaves the key, the pipelines and the image as they were, and names the file.
+TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
+  auto s = start();
+  const auto hard = s->pixels();
+  edit("penumbra/vsm.glsl", "float lod = log2(max(texels, 1e-8));",
+       "float lod = log2(max(texels, 1e-7));");
+  auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.rebuilt), std::vector<std::string>{"shadow-resolve"});
+  EXPECT_EQ(short_names(rec->result.same_spirv), std::vector<std::string>{"shadow-resolve"})
+      << "the default scene's resolve holds no EVSM2 code";
+  EXPECT_EQ(s->pixels(), hard);
+
+  // pcss.glsl broken: the reload fails, and so does asking for PCSS.
+  const std::string taps = "  int search_taps = pcss_search_tap_count(tier);\n  float search_radius";
+  const std::string text = testing::read_text(shader("penumbra/pcss.glsl"));
+  const int line = testing::line_of(text, "  int search_taps = pcss_search_tap_count(tier);");
+  edit("penumbra/pcss.glsl", taps, "  int search_taps = pcss_search_tap_count(tier) +;\n  float search_radius");
+  rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_FALSE(rec->result.ok());
+  try {
+    s->set("shadows.filter", "pcss");
+    ADD_FAILURE() << "a filter whose file does not compile was set";
+  } catch (const Error& e) {
+    EXPECT_THAT(e.what(), HasSubstr("pcss.glsl:" + std::to_string(line))) << e.what();
+  }
+  EXPECT_EQ(s->get("shadows.filter"), "hard");
+  s->render();
+  EXPECT_EQ(s->pixels(), hard);
+
+  // Mended: PCSS compiles, and renders what a renderer built for it does.
+  edit("penumbra/pcss.glsl", "  int search_taps = pcss_search_tap_count(tier) +;\n", "  int search_taps = pcss_search_tap_count(tier);\n");
+  rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  s->set("shadows.filter", "pcss");
+  s->render();
+  scene::Scene pcss = small_scene("default");
+  scene::set_param(pcss, "shadows.filter", "pcss");
+  render::RendererOptions o;
+  o.shader_dir = tree.shaders();
+  render::Renderer fresh(ctx(), pcss, o);
+  fresh.render(0);
+  EXPECT_EQ(s->pixels(), fresh.read_rgba8());
+  EXPECT_NE(s->pixels(), hard);
+
+  // A renderer's own scene(): the next frame compiles the filter it names.
+  render::Renderer r(ctx(), small_scene("default"), o);
+  r.render(0);
+  EXPECT_EQ(r.read_rgba8(), hard);
+  scene::set_param(r.scene(), "shadows.filter", "pcss");
+  r.render(0);
+  EXPECT_EQ(r.read_rgba8(), fresh.read_rgba8());
+}
+
 // Specialization must not change a pixel: for every filter (the scene's, which the local lights
 // without their own follow), lights with their own filters, the debug views that change what
 // the resolves compute, and each way of choosing the sun's cascade (by view depth, by

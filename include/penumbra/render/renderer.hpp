@@ -121,8 +121,13 @@ class Renderer {
   Renderer(const Renderer&) = delete;
   Renderer& operator=(const Renderer&) = delete;
 
-  // Records, submits and waits for one frame.
+  // Records, submits and waits for one frame (prepare() first).
   void render(uint32_t frame_index = 0);
+  // Makes what the scene as it is now needs that the last frame did not: the resolves compile
+  // only the filters the scene's lights use, so a filter changed through scene() compiles the
+  // resolve again. Throws penumbra::Error (with file:line) when that does not compile; the
+  // renderer is then as it was, and render() throws the same until the scene or the file changes.
+  void prepare();
   // With shadows.temporal: the next frame starts the accumulation afresh (a camera cut). The
   // renderer does so itself on its first frame, after a reload that rebuilt a pipeline, and when
   // a parameter other than the camera, the sun's direction and temporal_weight changed.

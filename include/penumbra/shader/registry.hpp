@@ -92,6 +92,11 @@ class ProgramRegistry {
   // programs' and installed together.
   void add_prepared(std::string name, std::vector<ProgramSource> sources, Prepare prepare);
 
+  // Forgets the program of this name: reloads no longer rebuild it (its pipelines stay with
+  // whoever holds them). A renderer that swaps one variant of a program for another (the
+  // resolves, when the scene's filters change) adds the new one, then removes the old.
+  void remove(const std::string& name);
+
   // Recompiles the programs that read one of these files and recreates them. before_first_create
   // runs once, before the first create (the renderer waits for the GPU to be idle there).
   ReloadResult reload(const std::vector<std::filesystem::path>& changed_files,

@@ -66,6 +66,9 @@ struct FrameResources {
   RendererOptions::SunWindow sun_window = RendererOptions::SunWindow::automatic;
   RendererOptions::Scroll scroll_cascades = RendererOptions::Scroll::automatic;
   scene::Scene::Requirements req{};
+  // Run before each frame is recorded (Renderer::prepare): what a pass needs ready for the scene
+  // as it is now (PerPixelCompute::prepare).
+  std::vector<std::function<void()>> before_frame;
 
   std::vector<GpuMesh> meshes;
   gpu::Buffer frame_ubo;
@@ -181,6 +184,8 @@ struct SpecValue {
 };
 using SpecValues = std::vector<SpecValue>;
 using Specialize = std::function<SpecValues(const FrameResources&)>;
+// Defines a pass compiles its program with for the frame being recorded, besides its source's.
+using Variant = std::function<std::vector<shader::Define>(const FrameResources&)>;
 
 // A compute program run once per pixel of the frame (8x8 groups): its layout (set 0 only), its
 // pipeline in the program registry (a reload replaces it) and its descriptor set. The compute
@@ -191,20 +196,34 @@ using Specialize = std::function<SpecValues(const FrameResources&)>;
 // compiles only the code that frame runs. Each set of values is a pipeline of its own, made
 // the first time a frame needs it and kept until a reload; a reload makes only the one the
 // current frame needs (the others follow when a frame needs them).
+//
+// With `variant`, the program itself depends on the frame: its defines are the source's and
+// those `variant` returns (the resolves: PENUMBRA_FILTERS_2D/_CUBE, the filters the scene's
+// lights use, so the SPIR-V holds no other filter). One variant is in the program registry at a
+// time: before a frame whose defines differ, prepare() compiles the new one (a failure throws and
+// leaves the old one running) and the registry forgets the old.
 class PerPixelCompute {
  public:
   PerPixelCompute(FrameResources& r, const std::string& name, shader::ProgramSource source,
-                  std::vector<gpu::BindingDesc> bindings, Specialize specialize = {});
+                  std::vector<gpu::BindingDesc> bindings, Specialize specialize = {},
+                  Variant variant = {});
   VkDescriptorSet set() const { return set_; }
   void dispatch(VkCommandBuffer cmd, const FrameResources& r);
   size_t pipeline_count() const { return pipelines_.size(); }
+  // The program variant this frame needs, compiled if it is not the one registered.
+  void prepare(FrameResources& r);
 
  private:
+  void add_variant(FrameResources& r, const std::vector<shader::Define>& defines);
   SpecValues values_for(const FrameResources& r) const;  // none when not specializing
   std::unique_ptr<gpu::ComputePipeline> make(const FrameResources& r,
                                              const std::vector<uint32_t>& spirv,
                                              const SpecValues& values) const;
   std::string name_;
+  std::string full_name_;  // the registry name without the variant's defines
+  shader::ProgramSource source_;
+  Variant variant_;
+  std::string registered_;  // the variant in the registry: its name
   std::unique_ptr<gpu::PipelineLayout> layout_;
   Specialize specialize_;
   std::vector<uint32_t> spirv_;  // the running program's

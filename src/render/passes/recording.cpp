@@ -211,24 +211,52 @@ void create_mask_textures(FrameResources& r) {
 
 PerPixelCompute::PerPixelCompute(FrameResources& r, const std::string& name,
                                  shader::ProgramSource source,
-                                 std::vector<gpu::BindingDesc> bindings, Specialize specialize)
+                                 std::vector<gpu::BindingDesc> bindings, Specialize specialize,
+                                 Variant variant)
     : name_(name.substr(0, name.find(' '))),
+      full_name_(name),
+      source_(std::move(source)),
+      variant_(std::move(variant)),
       layout_(std::make_unique<gpu::PipelineLayout>(
           r.ctx, std::vector<std::vector<gpu::BindingDesc>>{std::move(bindings)})),
       specialize_(std::move(specialize)) {
-  r.add_prepared_pipeline(
-      name, {std::move(source)},
-      [this, &r](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
-        // The variant this frame needs; at the install the others, made from the old code, go.
-        const SpecValues values = values_for(r);
-        std::shared_ptr<gpu::ComputePipeline> fresh = make(r, spirv[0], values);
-        return [this, values, fresh, code = spirv[0]] {
-          pipelines_.clear();
-          pipelines_.emplace(values, fresh);
-          spirv_ = code;
-        };
-      });
+  add_variant(r, variant_ ? variant_(r) : std::vector<shader::Define>{});
+  if (variant_) r.before_frame.push_back([this, &r] { prepare(r); });
   set_ = r.pool.allocate(layout_->set_layout(0));
+}
+
+void PerPixelCompute::add_variant(FrameResources& r, const std::vector<shader::Define>& defines) {
+  const std::string name = variant(full_name_, defines);
+  shader::ProgramSource source = source_;
+  source.defines.insert(source.defines.end(), defines.begin(), defines.end());
+  auto prepare = [this, &r](const shader::Spirvs& spirv) -> shader::ProgramRegistry::Install {
+    // The variant this frame needs; at the install the others, made from the old code, go.
+    const SpecValues values = values_for(r);
+    std::shared_ptr<gpu::ComputePipeline> fresh = make(r, spirv[0], values);
+    return [this, values, fresh, code = spirv[0]] {
+      pipelines_.clear();
+      pipelines_.emplace(values, fresh);
+      spirv_ = code;
+    };
+  };
+  if (registered_.empty()) {
+    r.add_prepared_pipeline(name, {std::move(source)}, std::move(prepare));
+  } else {
+    // Compiled and installed first (a failure throws with the old variant still running), then
+    // the old one is forgotten; the build report names the running variant.
+    r.registry.add_prepared(name, {std::move(source)}, std::move(prepare));
+    r.registry.remove(registered_);
+    std::replace(r.report.pipelines.begin(), r.report.pipelines.end(), registered_, name);
+  }
+  registered_ = name;
+}
+
+void PerPixelCompute::prepare(FrameResources& r) {
+  if (!variant_) return;
+  const std::vector<shader::Define> defines = variant_(r);
+  if (variant(full_name_, defines) == registered_) return;
+  gpu::check(vkDeviceWaitIdle(r.ctx.device()), "vkDeviceWaitIdle");  // the old variant's pipelines go
+  add_variant(r, defines);
 }
 
 SpecValues PerPixelCompute::values_for(const FrameResources& r) const {
