@@ -87,13 +87,7 @@ std::string json_number(double v) {
 }
 
 void check_validation(gpu::Context& ctx) {
-  if (!ctx.validation_enabled()) return;
-  auto messages = ctx.validation_sink().take();
-  if (messages.empty()) return;
-  std::string text;
-  for (const auto& m : messages) text += "\n  " + gpu::to_string(m);
-  throw Error("validation layer reported " + std::to_string(messages.size()) +
-              " message(s):" + text);
+  if (ctx.validation_enabled()) gpu::throw_if_messages(ctx.validation_sink());
 }
 
 int run(const Options& o) {

@@ -1,3 +1,4 @@
+#include <penumbra/core/error.hpp>
 #include <penumbra/gpu/validation.hpp>
 
 namespace penumbra::gpu {
@@ -54,6 +55,15 @@ std::string to_string(const ValidationMessage& message) {
       break;
   }
   return std::string("[validation ") + severity + "] " + message.id + ": " + message.message;
+}
+
+void throw_if_messages(ValidationSink& sink) {
+  const auto messages = sink.take();
+  if (messages.empty()) return;
+  std::string text;
+  for (const auto& m : messages) text += "\n  " + to_string(m);
+  throw Error("validation layer reported " + std::to_string(messages.size()) + " message(s):" +
+              text);
 }
 
 }  // namespace penumbra::gpu

@@ -139,7 +139,8 @@ std::string filters_glsl() {
     s += "const uint " + std::string(kTable[i].constant) + " = " + std::to_string(i) + "u;  // " +
          std::string(kTable[i].name) + "\n";
   s += "const uint kFilterCount = " + std::to_string(std::size(kTable)) + "u;\n\n";
-  s += "// The same numbers for #if: PENUMBRA_FILTERS_2D and PENUMBRA_FILTERS_CUBE (shadow_filter.glsl)\n"
+  s += "// The same numbers for #if: PENUMBRA_FILTERS_2D and PENUMBRA_FILTERS_CUBE "
+       "(shadow_filter.glsl)\n"
        "// are bit sets of them.\n";
   for (std::size_t i = 0; i < std::size(kTable); ++i) {
     std::string name(kTable[i].name);

@@ -477,10 +477,12 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
   EXPECT_EQ(s->pixels(), hard);
 
   // pcss.glsl broken: the reload fails, and so does asking for PCSS.
-  const std::string taps = "  int search_taps = pcss_search_tap_count(tier);\n  float search_radius";
+  const std::string taps =
+      "  int search_taps = pcss_search_tap_count(tier);\n  float search_radius";
   const std::string text = testing::read_text(shader("penumbra/pcss.glsl"));
   const int line = testing::line_of(text, "  int search_taps = pcss_search_tap_count(tier);");
-  edit("penumbra/pcss.glsl", taps, "  int search_taps = pcss_search_tap_count(tier) +;\n  float search_radius");
+  edit("penumbra/pcss.glsl", taps,
+       "  int search_taps = pcss_search_tap_count(tier) +;\n  float search_radius");
   rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec);
   EXPECT_FALSE(rec->result.ok());
@@ -495,7 +497,8 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
   EXPECT_EQ(s->pixels(), hard);
 
   // Mended: PCSS compiles, and renders what a renderer built for it does.
-  edit("penumbra/pcss.glsl", "  int search_taps = pcss_search_tap_count(tier) +;\n", "  int search_taps = pcss_search_tap_count(tier);\n");
+  edit("penumbra/pcss.glsl", "  int search_taps = pcss_search_tap_count(tier) +;\n",
+       "  int search_taps = pcss_search_tap_count(tier);\n");
   rec = s->wait_reload(kTimeout);
   ASSERT_TRUE(rec);
   EXPECT_TRUE(rec->result.ok()) << s->error_text();

@@ -1,6 +1,6 @@
 #!/usr/bin/python3
-"""penumbra-compile-bench (issue 36): it times new versions of a compute program, and the sun
-resolve compiled with PENUMBRA_FILTERS_2D naming one filter is smaller SPIR-V than with every
+"""penumbra-compile-bench (issue 36): it times new versions of a compute program (with
+--dispatch their first dispatch too, on stand-in resources), and the sun resolve compiled with PENUMBRA_FILTERS_2D naming one filter is smaller SPIR-V than with every
 filter (shadow_filter.glsl compiles no other case); --write-spirv writes the SPIR-V, and a .spv file is taken as it is; bad input is
 refused by name.
 
@@ -52,6 +52,18 @@ if "render/shadow_resolve.comp" in every and "render/shadow_resolve.comp" in har
     a = float(every["render/shadow_resolve.comp"].group(2))
     b = float(hard["render/shadow_resolve.comp"].group(2))
     check(b < 0.8 * a, f"PENUMBRA_FILTERS_2D=1 left the resolve at {b} KB of {a}")
+
+# --dispatch: every binding of the sun resolve (uniform blocks, a depth-compare array, a storage
+# image) gets a stand-in, the first dispatch of each version is timed, and the validation layer
+# (on in the tests' environment, where any message fails the run) is content.
+r = run("--program", "render/shadow_resolve.comp", "--versions", "2", "--dispatch",
+        "--define", "PENUMBRA_FILTERS_2D=1", "--spec", "0=0")
+out_all += r.stdout + r.stderr
+DISPATCH = re.compile(r"^render/shadow_resolve\.comp\s+.*\)\s+([0-9.]+) \(\s*[0-9.]+-\s*[0-9.]+\)$",
+                      re.M)
+check(r.returncode == 0 and "first dispatch ms" in r.stdout and DISPATCH.search(r.stdout),
+      f"--dispatch did not time the first dispatch: {r.stdout}{r.stderr}")
+check("validation: 0 messages" in r.stdout, "the validation layer was off or reported messages")
 
 # A .spv file: no glslang column.
 with tempfile.TemporaryDirectory() as tmp:

@@ -38,4 +38,8 @@ class ValidationSink {
 
 std::string to_string(const ValidationMessage& message);
 
+// Takes the sink's messages and throws penumbra::Error listing them, if there are any: what a
+// tool run with PENUMBRA_VALIDATION=1 does, so that any message fails it.
+void throw_if_messages(ValidationSink& sink);
+
 }  // namespace penumbra::gpu

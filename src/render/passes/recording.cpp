@@ -255,7 +255,8 @@ void PerPixelCompute::prepare(FrameResources& r) {
   if (!variant_) return;
   const std::vector<shader::Define> defines = variant_(r);
   if (variant(full_name_, defines) == registered_) return;
-  gpu::check(vkDeviceWaitIdle(r.ctx.device()), "vkDeviceWaitIdle");  // the old variant's pipelines go
+  // The old variant's pipelines go at the install.
+  gpu::check(vkDeviceWaitIdle(r.ctx.device()), "vkDeviceWaitIdle");
   add_variant(r, defines);
 }
 
