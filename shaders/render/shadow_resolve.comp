@@ -46,8 +46,9 @@ layout(set = 0, binding = 7) uniform sampler2DArray sun_moments;
 #endif
 
 uint sun_filter() { return kSunFilter == kFromFrame ? frame.mode.z : kSunFilter; }
-// The filters this pipeline compiles (shadow_filter.glsl): the specialized one, with the Poisson
-// disk that constant width turns PCF into; evsm2 only with its moments.
+// The filters this pipeline may dispatch to (shadow_filter.glsl): the specialized one, with the
+// Poisson disk that constant width turns PCF into; evsm2 only with its moments. The renderer's
+// PENUMBRA_FILTERS_2D narrows what is compiled: the disk only while constant width is on.
 uint sun_filters() {
   uint all = kSunFilter == kFromFrame ? kAllFilters
              : kSunFilter == kFilterPcf ? (1u << kFilterPcf) | (1u << kFilterPoisson)

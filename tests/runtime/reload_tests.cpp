@@ -522,6 +522,41 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
   EXPECT_EQ(r.read_rgba8(), fresh.read_rgba8());
 }
 
+// With PCF the sun resolve compiles the Poisson disk that constant width turns it into only
+// while shadows.constant_filter_width is on: an edit of the disk alone does not change the PCF
+// resolve's SPIR-V, and turning constant width on compiles the disk (with the edit) and renders
+// what the unspecialized resolve does.
+TEST_F(ReloadTest, ThePcfResolveCompilesThePoissonDiskOnlyWithConstantWidth) {
+  auto s = start();
+  s->set("shadows.filter", "pcf");
+  s->render();
+  const auto pcf = s->pixels();
+  const std::string taps =
+      "pcf_poisson_offset(i, cos_sin, radius, texel_size);\n    sum += texture(map, vec4(";
+  edit("penumbra/pcf.glsl", taps,
+       "pcf_poisson_offset(i, cos_sin, radius * 1.5, texel_size);\n    sum += texture(map, vec4(");
+  auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.same_spirv), std::vector<std::string>{"shadow-resolve"})
+      << "the PCF resolve without constant width holds no Poisson disk";
+  s->render();
+  EXPECT_EQ(s->pixels(), pcf);
+
+  s->set("shadows.constant_filter_width", "true");
+  s->render();
+  scene::Scene disk = small_scene("default");
+  scene::set_param(disk, "shadows.filter", "pcf");
+  scene::set_param(disk, "shadows.constant_filter_width", "true");
+  render::RendererOptions o;
+  o.shader_dir = tree.shaders();
+  o.specialize = false;  // every filter compiled, the choice read from the frame
+  render::Renderer every(ctx(), disk, o);
+  every.render(0);
+  EXPECT_EQ(s->pixels(), every.read_rgba8());
+  EXPECT_NE(s->pixels(), pcf);
+}
+
 // Specialization must not change a pixel: for every filter (the scene's, which the local lights
 // without their own follow), lights with their own filters, the debug views that change what
 // the resolves compute, and each way of choosing the sun's cascade (by view depth, by
@@ -552,6 +587,7 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
       {"indoor", "hard", "lit", scene::Filter::pcss, scene::Filter::poisson},
       {"indoor", "pcf", "lit", scene::Filter::evsm2, scene::Filter::evsm2},
       {"default", "pcf", "lit", {}, {}, {{"shadows.selection", "containment"}}},
+      {"default", "pcf", "lit", {}, {}, {{"shadows.constant_filter_width", "true"}}},
       {"default", "hard", "cascades", {}, {}, {{"shadows.layout", "clipmap"}}},
       {"default", "hard", "redrawn", {}, {}, {{"shadows.cache", "true"}}}};
   // Every other filter of the table, on the sun and on the local lights.

@@ -84,12 +84,16 @@ SpecValues sun_resolve_specialization(const FrameResources& r) {
           {3, "kRedrawnView", r.scene.render.view == scene::DebugView::redrawn ? 1u : 0u}};
 }
 
-// The filters the sun resolve compiles, as its sun_filters() has them (without the moments):
-// the frame's filter, and with PCF the Poisson disk that constant width turns it into.
+// The filters the sun resolve compiles: the frame's filter, and with PCF the Poisson disk that
+// constant width (shadows.constant_filter_width) turns it into, only while that is on. Its
+// sun_filters() allows the disk with PCF either way; compiling it when the frame cannot reach
+// it cost llvmpipe about 180 ms of every new version of a PCF resolve (LLVM: 324-328 ms with
+// the disk, 132-149 without; docs/hot-reload.md).
 uint32_t sun_filter_set(const FrameResources& r) {
   const uint32_t f = sun_filter_index(r.scene, r.req.sun_moments);
   const uint32_t pcf = scene::filter_index(scene::Filter::pcf);
-  return f == pcf ? (1u << pcf) | (1u << scene::filter_index(scene::Filter::poisson)) : 1u << f;
+  const bool disk = f == pcf && r.scene.shadows.constant_filter_width;
+  return disk ? (1u << pcf) | (1u << scene::filter_index(scene::Filter::poisson)) : 1u << f;
 }
 
 // The filters the scene's spot lights and point lights may use (a bit per filter, over every
