@@ -29,6 +29,12 @@
 #ifndef PENUMBRA_SPOT_MOMENTS
 #define PENUMBRA_SPOT_MOMENTS 0
 #endif
+// The renderer's variant (src/render/passes/shadow_resolve.cpp): PENUMBRA_PENUMBRA_VIEW 0 leaves
+// the penumbra view's PCSS estimate out of the SPIR-V (indoor: 93 -> 66 KB), as kPenumbraView 0
+// switches it off. Undefined: compiled, and chosen per frame.
+#ifndef PENUMBRA_PENUMBRA_VIEW
+#define PENUMBRA_PENUMBRA_VIEW 1
+#endif
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -143,6 +149,7 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
   PcssLocalParams params =
       local_params(light.params.z, s.params.z, s.position_near.w, s.direction_far.w);
   float receiver_distance = dot(q - s.position_near.xyz, s.direction_far.xyz);
+#if PENUMBRA_PENUMBRA_VIEW
   if (penumbra_view()) {  // the PCSS estimate whatever the filter
     float average;
     int blockers;
@@ -156,6 +163,7 @@ float spot_visibility(LightGpu light, SpotShadowGpu s, int map, vec3 p, vec3 n, 
     float zb = linearize_depth(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
+#endif
   uint filter_mode = light_filter(light);
   ShadowLookup2D f;
   f.coord = coord;
@@ -218,6 +226,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
   float ref = cube_compare_depth(receiver_distance, s.depth_range.x, s.depth_range.z, reverse_z);
   PcssLocalParams params =
       local_params(light.params.z, 2.0 / resolution, s.depth_range.x, s.depth_range.y);
+#if PENUMBRA_PENUMBRA_VIEW
   if (penumbra_view()) {  // the PCSS estimate whatever the filter
     float average;
     int blockers;
@@ -231,6 +240,7 @@ float point_visibility(LightGpu light, PointShadowGpu s, int map, vec3 p, vec3 n
     float zb = cube_stored_distance(average, params.near, params.far, reverse_z);
     if (blockers > 0) debug.z = 2.0 * pcss_local_filter_radius_texels(receiver_distance, zb, wide);
   }
+#endif
   ShadowLookupCube f;
   f.dir = v;
   f.layer = map;

@@ -14,6 +14,24 @@
 #ifndef PENUMBRA_SUN_MOMENTS
 #define PENUMBRA_SUN_MOMENTS 0
 #endif
+// What the renderer's variant of this program compiles (src/render/passes/shadow_resolve.cpp),
+// besides the filters (PENUMBRA_FILTERS_2D): PENUMBRA_PENUMBRA_VIEW 1 compiles the penumbra
+// view's PCSS estimate, 0 leaves it out; PENUMBRA_REDRAWN_VIEW the same for the redrawn view;
+// PENUMBRA_SUN_CONTAINMENT 0 leaves out the selection by containment (and so the clipmap).
+// Undefined, each is compiled and chosen per frame. The specialization constants below pick
+// the same choices; these remove the code from the SPIR-V as well, so that glslang, reflection
+// and the driver's front end do not go through it at every edit (the default scene's resolve:
+// 75 -> 49 KB), and an edit of code the frame does not run changes no SPIR-V.
+#ifndef PENUMBRA_PENUMBRA_VIEW
+#define PENUMBRA_PENUMBRA_VIEW 1
+#endif
+#ifndef PENUMBRA_REDRAWN_VIEW
+#define PENUMBRA_REDRAWN_VIEW 1
+#endif
+#ifndef PENUMBRA_SUN_CONTAINMENT
+#define PENUMBRA_SUN_CONTAINMENT 1
+#endif
+#define PENUMBRA_SUN_EVSM2 ((((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_EVSM2) & 1) != 0)
 
 layout(local_size_x = 8, local_size_y = 8) in;
 
@@ -116,6 +134,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
   params.confidence_fraction = frame.pcss.x;
   // The penumbra debug view shows the PCSS estimate whatever the filter: the width the sun's
   // angular size would give here.
+#if PENUMBRA_PENUMBRA_VIEW
   if (penumbra_view()) {
     float average;
     int blockers;
@@ -125,6 +144,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
                               reverse_z, shadow.window[c], average, blockers);
     if (blockers > 0) penumbra = pcss_penumbra_width_texels(coord.z, average, params, reverse_z);
   }
+#endif
   // The filter (shadow_filter.glsl). Constant width in world units turns PCF into the Poisson
   // disk of world_radius.
   ShadowLookup2D q;
@@ -142,10 +162,12 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
   q.evsm = frame.evsm;
   q.moments_depth = coord.z;
   q.footprint = filter_mode == kFilterEvsm2 && frame.filter_world.z != 0.0;  // shadows.evsm_mips
+#if PENUMBRA_SUN_EVSM2
   if (q.footprint) {
     q.duv_dx = world_to_shadow_coord(cascade.view_proj, biased + dpdx).xy - coord.xy;
     q.duv_dy = world_to_shadow_coord(cascade.view_proj, biased + dpdy).xy - coord.xy;
   }
+#endif
   // The cascade's window on the image sampled: the renderer's toroidal grid read in place, or
   // the map itself (window.z 0).
   return shadow_filter_2d_array(constant_width ? kFilterPoisson : filter_mode, sun_filters(),
@@ -156,6 +178,7 @@ float cascade_visibility(int c, vec3 p, vec3 n, vec3 to_light, vec2 pixel, vec3 
 // The library's select_cascade_by_position, reading each matrix from the block in place: handing
 // it a local mat4[8] made llvmpipe lower every dynamic index into selects over 128 floats, about
 // 2 s of LLVM compile on each new version of this shader (docs/hot-reload.md).
+#if PENUMBRA_SUN_CONTAINMENT
 int select_cascade_containing(vec3 p, int count) {
   int n = clamp(count, 0, kCascadeMaxCount);
   float border = shadow_filter_reach_texels(sun_filter(), sun_extent());
@@ -166,12 +189,14 @@ int select_cascade_containing(vec3 p, int count) {
       return i;
   return n;
 }
+#endif
 
 // The debug view `redrawn`: what the shadow-map cache drew this frame of the texel of cascade c
 // that p falls in (ShadowGpu.redrawn): 3 the cascade was drawn whole, 2 the texel lies in a
 // strip a scrolled cascade newly reached, 1 it lies where moving casters were or are and was
 // drawn again (the cascade restored with the moving casters drawn over it, through a grid of its
 // own), 0 kept as it was.
+#if PENUMBRA_REDRAWN_VIEW
 float redrawn_code(int c, vec3 p) {
   uvec4 r = shadow.redrawn[c];
   if ((r.x & PENUMBRA_REDRAWN_WHOLE) != 0u) return 3.0;
@@ -190,6 +215,7 @@ float redrawn_code(int c, vec3 p) {
   vec2 t = floor(world_to_shadow_coord(shadow.cascades[c].view_proj, p).xy * float(shadow.counts.z));
   return all(greaterThanEqual(t, vec2(d.xy))) && all(lessThan(t, vec2(d.zw))) ? 1.0 : 0.0;
 }
+#endif
 
 // The camera-relative world position seen at screen uv with depth buffer value depth.
 vec3 unproject(vec2 uv, float depth) {
@@ -217,17 +243,23 @@ void main() {
   // Containment, and always for a clipmap (its levels are nested squares around the camera).
   bool by_containment = selection() != kByDepth;
   // The splits go in as the block's two vec4, not as an array copied by value (cascade.glsl).
+#if PENUMBRA_SUN_CONTAINMENT
   int c = by_containment
               ? select_cascade_containing(p, count)
               : select_cascade_by_depth(view_depth, shadow.splits[0], shadow.splits[1], count);
+#else
+  int c = select_cascade_by_depth(view_depth, shadow.splits[0], shadow.splits[1], count);
+#endif
   // The surface's move across one pixel, on its tangent plane (the neighbours' rays through it,
   // capped at 64 pixels' worth where they graze it): evsm2 with mips reads that footprint.
   vec3 dpdx = vec3(0.0), dpdy = vec3(0.0);
+#if PENUMBRA_SUN_EVSM2
   if (sun_filter() == kFilterEvsm2 && frame.filter_world.z != 0.0) {
     vec3 eye = shadow.camera_position.xyz;
     dpdx = ray_plane_point(eye, unproject(uv + vec2(frame.viewport.z, 0.0), depth), p, n, 64.0) - p;
     dpdy = ray_plane_point(eye, unproject(uv + vec2(0.0, frame.viewport.w), depth), p, n, 64.0) - p;
   }
+#endif
   float visibility = 1.0;
   float penumbra = 0.0;
   float texel_world = 0.0;
@@ -265,6 +297,8 @@ void main() {
   // Shadow-map texels per screen pixel: the pixel's world footprint over the texel's.
   float pixel_world = view_depth * 2.0 * frame.projection.z * frame.viewport.w;
   float density = texel_world > 0.0 ? pixel_world / texel_world : 0.0;
+#if PENUMBRA_REDRAWN_VIEW
   if (redrawn_view()) penumbra = c < count ? redrawn_code(c, p) : 0.0;
+#endif
   imageStore(shadow_info, pixel, vec4(visibility, c < count ? float(c) : -1.0, penumbra, density));
 }

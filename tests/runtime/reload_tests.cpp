@@ -476,6 +476,33 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
       << "the default scene's resolve holds no EVSM2 code";
   EXPECT_EQ(s->pixels(), hard);
 
+  // The penumbra view's PCSS estimate is not compiled while the view is off: an edit of it
+  // changes no SPIR-V. The view compiles it, with the edit, and shows what the unspecialized
+  // resolve shows.
+  edit("penumbra/pcss.glsl",
+       "  return pcss_penumbra_width(d, params.tan_half_angle) / params.texel_world_size;",
+       "  return 2.0 * pcss_penumbra_width(d, params.tan_half_angle) / params.texel_world_size;");
+  rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.same_spirv), std::vector<std::string>{"shadow-resolve"})
+      << "the default scene's resolve holds no penumbra view";
+  s->set("render.view", "penumbra");
+  s->render();
+  {
+    scene::Scene view = small_scene("default");
+    scene::set_param(view, "render.view", "penumbra");
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
+    o.specialize = false;
+    render::Renderer every(ctx(), view, o);
+    every.render(0);
+    EXPECT_EQ(s->pixels(), every.read_rgba8());
+  }
+  s->set("render.view", "lit");
+  s->render();
+  EXPECT_EQ(s->pixels(), hard);
+
   // pcss.glsl broken: the reload fails, and so does asking for PCSS.
   const std::string taps =
       "  int search_taps = pcss_search_tap_count(tier);\n  float search_radius";

@@ -73,15 +73,20 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
 // default scene does not use, a new version compiles in about 70 ms less (docs/hot-reload.md).
 // kSelection's values, as shadow_resolve.comp names them.
 constexpr uint32_t kByDepth = 0, kByContainment = 1, kClipmap = 2;
-SpecValues sun_resolve_specialization(const FrameResources& r) {
+uint32_t sun_selection(const FrameResources& r) {
   const auto& sh = r.scene.shadows;
-  const uint32_t selection = sh.layout == scene::ShadowLayout::clipmap                ? kClipmap
-                             : sh.selection == scene::CascadeSelection::containment ? kByContainment
-                                                                                    : kByDepth;
+  return sh.layout == scene::ShadowLayout::clipmap                ? kClipmap
+         : sh.selection == scene::CascadeSelection::containment ? kByContainment
+                                                                : kByDepth;
+}
+bool view_is(const FrameResources& r, scene::DebugView v) {
+  return r.scene.render.view == v;
+}
+SpecValues sun_resolve_specialization(const FrameResources& r) {
   return {{0, "kSunFilter", sun_filter_index(r.scene, r.req.sun_moments)},
-          {1, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u},
-          {2, "kSelection", selection},
-          {3, "kRedrawnView", r.scene.render.view == scene::DebugView::redrawn ? 1u : 0u}};
+          {1, "kPenumbraView", view_is(r, scene::DebugView::penumbra) ? 1u : 0u},
+          {2, "kSelection", sun_selection(r)},
+          {3, "kRedrawnView", view_is(r, scene::DebugView::redrawn) ? 1u : 0u}};
 }
 
 // The filters the sun resolve compiles: the frame's filter, and with PCF the Poisson disk that
@@ -114,15 +119,25 @@ std::pair<uint32_t, uint32_t> local_filter_sets(const FrameResources& r) {
 // (PerPixelCompute). Unspecialized, every filter (the choice read from the frame).
 // On llvmpipe the sun resolve's pipeline creation for the default scene (hard) went from about
 // 65 to 20 ms and the local resolve's for indoor from about 115 to 50 (docs/hot-reload.md).
+// The sun resolve's variant also leaves out the code of the debug views and of the selection by
+// containment when the frame does not use them (PENUMBRA_PENUMBRA_VIEW, PENUMBRA_REDRAWN_VIEW,
+// PENUMBRA_SUN_CONTAINMENT), which its specialization constants already switch off: the default
+// scene's SPIR-V 75 -> 49 KB, and an edit of pcss.glsl there (the penumbra view's estimate)
+// changes no SPIR-V.
 std::vector<shader::Define> sun_resolve_variant(const FrameResources& r) {
   if (!r.specialize) return {};
-  return {{"PENUMBRA_FILTERS_2D", std::to_string(sun_filter_set(r))}};
+  auto flag = [](bool on) { return std::string(on ? "1" : "0"); };
+  return {{"PENUMBRA_FILTERS_2D", std::to_string(sun_filter_set(r))},
+          {"PENUMBRA_PENUMBRA_VIEW", flag(view_is(r, scene::DebugView::penumbra))},
+          {"PENUMBRA_SUN_CONTAINMENT", flag(sun_selection(r) != kByDepth)},
+          {"PENUMBRA_REDRAWN_VIEW", flag(view_is(r, scene::DebugView::redrawn))}};
 }
 std::vector<shader::Define> local_resolve_variant(const FrameResources& r) {
   if (!r.specialize) return {};
   const auto [spots, points] = local_filter_sets(r);
   return {{"PENUMBRA_FILTERS_2D", std::to_string(spots)},
-          {"PENUMBRA_FILTERS_CUBE", std::to_string(points)}};
+          {"PENUMBRA_FILTERS_CUBE", std::to_string(points)},
+          {"PENUMBRA_PENUMBRA_VIEW", view_is(r, scene::DebugView::penumbra) ? "1" : "0"}};
 }
 
 // The local resolve's specialization (local_shadow_resolve.comp): the filters the scene's spot
@@ -132,7 +147,7 @@ SpecValues local_resolve_specialization(const FrameResources& r) {
   const auto [spots, points] = local_filter_sets(r);
   return {{0, "kSpotFilters", spots},
           {1, "kPointFilters", points},
-          {2, "kPenumbraView", r.scene.render.view == scene::DebugView::penumbra ? 1u : 0u}};
+          {2, "kPenumbraView", view_is(r, scene::DebugView::penumbra) ? 1u : 0u}};
 }
 
 }  // namespace
