@@ -12,7 +12,7 @@
 //     a version whose moved constants are all in code the specialization removes is compiled
 //     too;
 //   - with --dispatch, the first dispatch of one workgroup with the new pipeline (submit and
-//     wait), on stand-in resources (zeroed buffers, 4x4 images): where llvmpipe compiles the
+//     wait), on stand-in resources (zeroed buffers and push constants, 4x4 images): where llvmpipe compiles the
 //     code with LLVM. The data the program reads does not change what is compiled.
 // Prints the SPIR-V's size and the median, least and greatest of each, and the device.
 // --write-spirv DIR (made if missing) writes each compiled program's SPIR-V there (DIR/<name>.spv), for
@@ -178,9 +178,11 @@ struct StandIns {
         for (uint32_t e = 0; e < count; ++e)
           w.combined_image(b.binding, img.view(), smp.handle(),
                            VK_IMAGE_LAYOUT_SHADER_READ_ONLY_OPTIMAL, e);
-      } else if (b.kind == K::storage_image && b.image_dim == 2 && !b.image_arrayed &&
+      } else if (b.kind == K::storage_image && b.image_dim == 2 &&
                  storage_format(b.image_format) != VK_FORMAT_UNDEFINED) {
         penumbra::gpu::ImageDesc d;
+        d.kind = b.image_arrayed ? penumbra::gpu::ImageKind::image_2d_array
+                                 : penumbra::gpu::ImageKind::image_2d;
         d.format = storage_format(b.image_format);
         d.width = d.height = 4;
         d.usage = VK_IMAGE_USAGE_STORAGE_BIT | VK_IMAGE_USAGE_TRANSFER_DST_BIT;
@@ -190,7 +192,9 @@ struct StandIns {
         w.storage_image(b.binding, img.view());
       } else {
         throw Error(name + ": --dispatch has no stand-in for a " +
-                    std::string(penumbra::shader::to_string(b.kind)) + " of this kind");
+                    std::string(penumbra::shader::to_string(b.kind)) + " of this kind (Dim " +
+                    std::to_string(b.image_dim) + (b.image_arrayed ? ", arrayed" : "") +
+                    ", SPIR-V image format " + std::to_string(b.image_format) + ")");
       }
     }
     for (size_t i = 0; i < sets.size(); ++i) writers[i].update(ctx, sets[i]);
@@ -287,6 +291,11 @@ void run(const Options& o) {
           vkCmdBindDescriptorSets(cmd, VK_PIPELINE_BIND_POINT_COMPUTE, layout->handle(), 0,
                                   uint32_t(stand_ins->sets.size()), stand_ins->sets.data(), 0,
                                   nullptr);
+          if (refl.push_constants) {  // zeroed, like the other stand-ins
+            const std::vector<std::byte> zeros(refl.push_constants->size);
+            vkCmdPushConstants(cmd, layout->handle(), VK_SHADER_STAGE_COMPUTE_BIT, 0,
+                               uint32_t(zeros.size()), zeros.data());
+          }
           vkCmdDispatch(cmd, 1, 1, 1);
         });
         dispatch.push_back(ms_since(t));

@@ -64,11 +64,17 @@ DISPATCH = re.compile(r"^render/shadow_resolve\.comp\s+.*\)\s+([0-9.]+) \(\s*[0-
 check(r.returncode == 0 and "first dispatch ms" in r.stdout and DISPATCH.search(r.stdout),
       f"--dispatch did not time the first dispatch: {r.stdout}{r.stderr}")
 check("validation: 0 messages" in r.stdout, "the validation layer was off or reported messages")
+# The EVSM2 moments' pass: push constants and an arrayed storage image get stand-ins too.
+r = run("--program", "render/evsm_moments.comp", "--versions", "1", "--dispatch")
+out_all += r.stdout + r.stderr
+check(r.returncode == 0 and "validation: 0 messages" in r.stdout,
+      f"--dispatch of evsm_moments.comp: {r.stdout}{r.stderr}")
 
-# A .spv file: no glslang column.
+# A .spv file: no glslang column. --write-spirv makes its directory.
 with tempfile.TemporaryDirectory() as tmp:
-    spv = os.path.join(tmp, "tonemap.spv")
-    r = run("--program", "render/tonemap.comp", "--versions", "1", "--write-spirv", tmp)
+    spv = os.path.join(tmp, "made", "tonemap.spv")
+    r = run("--program", "render/tonemap.comp", "--versions", "1", "--write-spirv",
+            os.path.join(tmp, "made"))
     check(r.returncode == 0 and os.path.getsize(spv) > 1000,
           f"--write-spirv wrote no SPIR-V: {r.stdout}{r.stderr}")
     r = run("--program", spv, "--versions", "2")
