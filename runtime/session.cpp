@@ -4,12 +4,14 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <exception>
 #include <penumbra/core/error.hpp>
 #include <penumbra/core/stats.hpp>
 #include <penumbra/render/contact_shadows.hpp>
 #include <penumbra/scene/params.hpp>
 #include <set>
 #include <sstream>
+#include <thread>
 
 namespace penumbra::runtime {
 namespace fs = std::filesystem;
@@ -228,6 +230,29 @@ std::string Session::get(const std::string& key) {
 }
 
 ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
+  ReloadRecord rec = collect(changes);
+  if (rec.changed.empty()) return rec;
+  const auto t0 = Clock::now();
+  try {
+    rec.result = renderer_->reload(rec.changed);
+  } catch (const Error& e) {
+    failed(rec, e);
+  }
+  rec.reload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  conclude(rec);
+  return rec;
+}
+
+void Session::failed(ReloadRecord& rec, const Error& e) {
+  std::set<std::string> names;
+  for (const auto& f : rec.changed)
+    for (const auto& n : renderer_->pipelines_reading(f)) names.insert(n);
+  rec.result = {};
+  rec.result.failed.assign(names.begin(), names.end());
+  rec.result.errors.assign(names.size(), e.what());
+}
+
+ReloadRecord Session::collect(const std::vector<FileChange>& changes) {
   ReloadRecord rec;
   rec.event = Clock::now();
   std::set<fs::path> files = retry_;
@@ -268,21 +293,10 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
     log("[reload] " + relative(d) + " was deleted; " +
         join(short_names(renderer_->pipelines_reading(d))) + " keep running until it is back");
   }
-  if (rec.changed.empty()) return rec;
+  return rec;
+}
 
-  const auto t0 = Clock::now();
-  try {
-    rec.result = renderer_->reload(rec.changed);
-  } catch (const Error& e) {
-    // A stage file that cannot be read (deleted between poll and reload): every pipeline
-    // reading one of the files is reported as failed; they keep their last good state.
-    std::set<std::string> names;
-    for (const auto& f : rec.changed)
-      for (const auto& n : renderer_->pipelines_reading(f)) names.insert(n);
-    rec.result.failed.assign(names.begin(), names.end());
-    rec.result.errors.assign(names.size(), e.what());
-  }
-  rec.reload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+void Session::conclude(ReloadRecord& rec) {
   watch_outside_files();  // an edit may include a file through a new symlink
 
   const auto previous = errors_;
@@ -325,7 +339,6 @@ ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
       log("[reload] not swapped in until every pipeline the edit reaches builds: " +
           join(short_names(rec.result.held)));
   }
-  return rec;
 }
 
 std::optional<ReloadRecord> Session::poll_reload() {
@@ -388,7 +401,36 @@ std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeo
 void Session::render(uint32_t count) {
   for (uint32_t i = 0; i < count; ++i) {
     poll_reload();
-    renderer_->render(frame_index_);
+    // A burst that finishes while the GPU renders: its files are collected and compiled on a
+    // worker (Renderer::prepare_reload) while this thread waits for the frame, and swapped in
+    // after it. Before, the compile began only once the frame was done.
+    std::optional<ReloadRecord> during;
+    std::optional<shader::PreparedReload> prepared;
+    std::exception_ptr failure;
+    std::thread worker;
+    Clock::time_point t0;
+    const auto while_busy = [&] {
+      if (during || !watcher_) return;
+      const auto changes = watcher_->poll_changes();
+      if (changes.empty()) return;
+      during = collect(changes);
+      if (during->changed.empty()) return;
+      during->during_frame = true;
+      t0 = Clock::now();
+      worker = std::thread([this, &prepared, &failure, files = during->changed] {
+        try {
+          prepared = renderer_->prepare_reload(files);
+        } catch (...) {
+          failure = std::current_exception();
+        }
+      });
+    };
+    try {
+      renderer_->render(frame_index_, while_busy);
+    } catch (...) {
+      if (worker.joinable()) worker.join();
+      throw;
+    }
     rendered_ = true;
     for (const size_t index : awaiting_frame_) {
       ReloadRecord& rec = reloads_[index];
@@ -403,6 +445,20 @@ void Session::render(uint32_t count) {
       log(line);
     }
     awaiting_frame_.clear();
+    if (!during) continue;
+    if (worker.joinable()) {
+      worker.join();
+      try {
+        if (failure) std::rethrow_exception(failure);
+        during->result = renderer_->finish_reload(std::move(*prepared));
+      } catch (const Error& e) {
+        failed(*during, e);
+      }
+      during->reload_ms = ms_since(t0);
+      conclude(*during);
+    }
+    if (!during->result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
+    reloads_.push_back(*during);
   }
 }
 

@@ -55,8 +55,13 @@ struct ReloadRecord {
   std::vector<std::filesystem::path> changed;  // existing files passed to Renderer::reload
   std::vector<std::filesystem::path> deleted;  // gone when polled (only those a pipeline reads)
   render::ReloadResult result;
-  double reload_ms = 0.0;   // Renderer::reload (compile + pipeline creation)
-  double waited_ms = 0.0;   // first event -> batch handed out (debounce, a frame in flight)
+  // Renderer::reload (compile + pipeline creation); for a burst that finished while a frame ran
+  // (compiled during it), until its pipelines were swapped in after that frame.
+  double reload_ms = 0.0;
+  // First event -> batch handed out: the debounce, and for a burst that finished between
+  // frames, the wait for the next poll.
+  double waited_ms = 0.0;
+  bool during_frame = false;  // compiled while a frame ran, swapped in after it
   Clock::time_point event;  // the first event of the burst, as the watcher saw it
   std::optional<double> latency_ms;  // event -> end of the first frame with the new pipelines
   // Whether the batch touched a pipeline (rebuilt, failed or lost a file it reads).
@@ -107,7 +112,9 @@ class Session {
   std::optional<ReloadRecord> wait_reload(std::chrono::milliseconds timeout,
                                           const std::optional<std::filesystem::path>& file = {});
 
-  // Renders `count` frames; a finished burst of edits is reloaded before each.
+  // Renders `count` frames; a finished burst of edits is reloaded before each. A burst that
+  // finishes while the GPU renders a frame is compiled then, on another thread, and swapped in
+  // when the frame is done: the next frame has it (the compile no longer waits for the frame).
   void render(std::uint32_t count = 1);
   bool rendered() const { return rendered_; }
   std::vector<std::uint8_t> pixels();  // the last frame, RGBA8
@@ -129,6 +136,13 @@ class Session {
 
  private:
   ReloadRecord apply(const std::vector<FileChange>& changes);
+  // apply() in steps: the files of a burst (rec.changed; deletions logged), then after the
+  // renderer's reload, the errors, the retries and the log.
+  ReloadRecord collect(const std::vector<FileChange>& changes);
+  void conclude(ReloadRecord& rec);
+  // A reload that threw (a stage file that cannot be read): every pipeline reading one of the
+  // files failed with that message, and keeps its last good state.
+  void failed(ReloadRecord& rec, const Error& e);
   // Watches the directories of the files the pipelines read outside the shader tree (the
   // targets of symlinked shaders), so editing a target reloads too.
   void watch_outside_files();

@@ -277,6 +277,7 @@ struct Row {
   std::vector<double> latency, waited, reload, frame;
   std::string rebuilt;
   int same_spirv = 0;  // edits after which every rebuilt program kept its SPIR-V
+  int during_frame = 0;  // edits compiled while a frame ran (the frame loop)
 };
 
 penumbra::scene::Scene scene_for(const Setting& setting) {
@@ -368,6 +369,7 @@ void measure(penumbra::runtime::Session& session, const fs::path& shaders, const
       row.reload.push_back(done->reload_ms);
       row.frame.push_back(*done->latency_ms - done->waited_ms - done->reload_ms);
       if (done->result.same_spirv.size() == done->result.rebuilt.size()) ++row.same_spirv;
+      if (done->during_frame) ++row.during_frame;
       if (row.rebuilt.empty()) {
         for (const auto& n : done->result.rebuilt)
           row.rebuilt += (row.rebuilt.empty() ? "" : ", ") + n.substr(0, n.find(' '));
@@ -380,12 +382,13 @@ void measure(penumbra::runtime::Session& session, const fs::path& shaders, const
       note = "  (SPIR-V unchanged in " + std::to_string(row.same_spirv) + ")";
     std::printf(
         "  %-34s %-25s latency %4.0f ms (%.2f steady frames; min %4.0f, p99 %4.0f, max %4.0f)"
-        "  waited %4.0f  reload %4.0f  frame %4.0f   rebuilt: %s%s\n",
+        "  waited %4.0f  reload %4.0f  frame %4.0f  in a frame %2d/%-2d  rebuilt: %s%s\n",
         row.file.c_str(), row.mode.c_str(), median(row.latency), median(row.latency) / frame,
         *std::min_element(row.latency.begin(), row.latency.end()),
         penumbra::stats::quantile(row.latency, 0.99),
         *std::max_element(row.latency.begin(), row.latency.end()), median(row.waited),
-        median(row.reload), median(row.frame), row.rebuilt.c_str(), note.c_str());
+        median(row.reload), median(row.frame), row.during_frame, o.edits, row.rebuilt.c_str(),
+        note.c_str());
     std::fflush(stdout);
   }
   write_text(file, original);  // restored, and reloaded before the next file's first edit
@@ -536,8 +539,9 @@ int run(int argc, char** argv) {
   }
   std::printf(
       "(medians over %d edits; latency = file event -> end of the first frame with the "
-      "new pipelines = waited (debounce + the frame in flight) + reload (compile + "
-      "pipelines) + frame)\n",
+      "new pipelines = waited (the debounce; for a save seen between frames, the rest of the "
+      "frame in flight too) + reload (compile + pipelines; compiled in a frame, until that "
+      "frame ends) + frame; in a frame: saves compiled while a frame ran)\n",
       o.edits);
   if (ctx.validation_enabled()) {  // PENUMBRA_VALIDATION=1: any message fails the run
     const auto messages = ctx.validation_sink().take();

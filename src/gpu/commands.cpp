@@ -51,6 +51,10 @@ VkCommandBuffer CommandRecorder::begin() {
 }
 
 void CommandRecorder::submit_and_wait() {
+  submit_and_wait({});
+}
+
+void CommandRecorder::submit_and_wait(const std::function<void()>& while_waiting) {
   check(vkEndCommandBuffer(cmd_), "vkEndCommandBuffer");
   VkCommandBufferSubmitInfo cbi{VK_STRUCTURE_TYPE_COMMAND_BUFFER_SUBMIT_INFO};
   cbi.commandBuffer = cmd_;
@@ -60,7 +64,17 @@ void CommandRecorder::submit_and_wait() {
   check(vkResetFences(ctx_.device(), 1, &fence_), "vkResetFences");
   const SharedGpu shared;  // another process timing its frames waits (PENUMBRA_GPU_LOCK)
   check(vkQueueSubmit2(ctx_.queue(), 1, &si, fence_), "vkQueueSubmit2");
-  check(vkWaitForFences(ctx_.device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+  if (!while_waiting) {
+    check(vkWaitForFences(ctx_.device(), 1, &fence_, VK_TRUE, UINT64_MAX), "vkWaitForFences");
+    return;
+  }
+  constexpr uint64_t kPollNs = 2'000'000;
+  for (;;) {
+    while_waiting();
+    const VkResult r = vkWaitForFences(ctx_.device(), 1, &fence_, VK_TRUE, kPollNs);
+    if (r == VK_SUCCESS) return;
+    if (r != VK_TIMEOUT) check(r, "vkWaitForFences");
+  }
 }
 
 TimestampPool::TimestampPool(Context& ctx, uint32_t capacity) : ctx_(ctx), capacity_(capacity) {

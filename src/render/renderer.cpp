@@ -145,7 +145,11 @@ struct Renderer::Impl {
   uint64_t last_key = 0;
 
   ReloadResult reload(const std::vector<fs::path>& changed) {
-    ReloadResult result = registry.reload(changed, [this] { vkDeviceWaitIdle(ctx.device()); });
+    return finish_reload(registry.prepare_reload(changed));
+  }
+  ReloadResult finish_reload(shader::PreparedReload prepared) {
+    ReloadResult result =
+        registry.finish_reload(std::move(prepared), [this] { vkDeviceWaitIdle(ctx.device()); });
     // The programs with new code (one whose SPIR-V did not change keeps its pipelines).
     std::vector<std::string> new_code;
     for (const std::string& p : result.rebuilt)
@@ -336,12 +340,12 @@ struct Renderer::Impl {
   void prepare() {
     for (const auto& f : res.before_frame) f();
   }
-  void render(uint32_t frame_index) {
+  void render(uint32_t frame_index, const std::function<void()>& while_gpu_busy = {}) {
     prepare();
     update(frame_index);
     VkCommandBuffer cmd = recorder.begin();
     record(cmd);
-    recorder.submit_and_wait();
+    recorder.submit_and_wait(while_gpu_busy);
     const auto ns = timestamps.read_ns(uint32_t(pass_names.size() + 1));
     timings.clear();
     for (size_t i = 0; i < pass_names.size(); ++i)
@@ -372,6 +376,14 @@ ReloadResult Renderer::reload(const std::vector<fs::path>& changed_files) {
   return impl_->reload(changed_files);
 }
 
+shader::PreparedReload Renderer::prepare_reload(const std::vector<fs::path>& changed_files) const {
+  return impl_->registry.prepare_reload(changed_files);
+}
+
+ReloadResult Renderer::finish_reload(shader::PreparedReload prepared) {
+  return impl_->finish_reload(std::move(prepared));
+}
+
 std::vector<fs::path> Renderer::shader_files() const {
   return impl_->registry.files();
 }
@@ -386,6 +398,10 @@ Renderer::~Renderer() {
 
 void Renderer::render(uint32_t frame_index) {
   impl_->render(frame_index);
+}
+
+void Renderer::render(uint32_t frame_index, const std::function<void()>& while_gpu_busy) {
+  impl_->render(frame_index, while_gpu_busy);
 }
 
 void Renderer::prepare() {

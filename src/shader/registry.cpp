@@ -60,7 +60,7 @@ bool ProgramRegistry::reads(const Program& p, const std::set<fs::path>& files,
 }
 
 Spirvs ProgramRegistry::compile(const std::vector<ProgramSource>& sources,
-                                std::set<fs::path>* dependencies) {
+                                std::set<fs::path>* dependencies) const {
   Spirvs out;
   for (const auto& src : sources) {
     auto c = compiler_.compile_file(resolve(src.file), std::nullopt, src.defines);
@@ -86,6 +86,7 @@ void ProgramRegistry::add_prepared(std::string name, std::vector<ProgramSource> 
   p.prepare(spirv)();
   p.current = std::move(spirv);
   programs_.push_back(std::move(p));
+  ++generation_;
 }
 
 namespace {
@@ -191,7 +192,13 @@ std::string ProgramRegistry::interface_report(const Program& p, const Spirvs& sp
 
 ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
                                      const std::function<void()>& before_first_create) {
-  ReloadResult result;
+  return finish_reload(prepare_reload(changed_files), before_first_create);
+}
+
+PreparedReload ProgramRegistry::prepare_reload(const std::vector<fs::path>& changed_files) const {
+  PreparedReload prepared;
+  prepared.changed = changed_files;
+  prepared.generation = generation_;
   // Each changed file as the dependencies name it (canonical), and as it was written: a file
   // that became a symlink (to /dev/zero, say) canonicalizes elsewhere, yet the programs that
   // read it must see the change and report it.
@@ -206,20 +213,12 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   }
 
   // 1. Recompile and check every program the change reaches, in parallel; create nothing yet.
-  struct Pending {
-    Program* program;
-    Spirvs spirv;
-    std::set<fs::path> deps;
-    std::string error;  // a compile error or the interface changes
-    Install install;
-    bool same = false;  // the SPIR-V the running pipelines were made from: they are kept
-  };
-  std::vector<Pending> pending;
-  for (auto& p : programs_)
-    if (reads(p, files, names)) pending.push_back(Pending{&p, {}, {}, {}, {}});
+  auto& pending = prepared.programs;
+  for (size_t i = 0; i < programs_.size(); ++i)
+    if (reads(programs_[i], files, names)) pending.push_back({i, {}, {}, {}, {}, false});
   parallel_for(pending.size(), [&](size_t i) {
-    Pending& next = pending[i];
-    const Program& p = *next.program;
+    PreparedReload::Program& next = pending[i];
+    const Program& p = programs_[next.index];
     try {
       next.spirv = compile(p.sources, &next.deps);
       next.same = next.spirv == p.current;
@@ -233,46 +232,55 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
   // pipelines: they are what the new code would make, and the driver is not asked again (on
   // lavapipe that costs a compile at the next use even when its cache answers).
   const bool compiled = std::all_of(pending.begin(), pending.end(),
-                                    [](const Pending& n) { return n.error.empty(); });
+                                    [](const PreparedReload::Program& n) { return n.error.empty(); });
   if (compiled) {
     parallel_for(pending.size(), [&](size_t i) {
-      Pending& next = pending[i];
+      PreparedReload::Program& next = pending[i];
       if (next.same) {
         next.install = [] {};
         return;
       }
       try {
-        next.install = next.program->prepare(next.spirv);
+        next.install = programs_[next.index].prepare(next.spirv);
       } catch (const std::exception& e) {
         next.error = e.what();
       }
     });
   }
-  for (const Pending& n : pending) {
+  return prepared;
+}
+
+ReloadResult ProgramRegistry::finish_reload(PreparedReload prepared,
+                                            const std::function<void()>& before_first_create) {
+  // Programs added or removed since (a variant swapped in): what was prepared may name others.
+  if (prepared.generation != generation_) prepared = prepare_reload(prepared.changed);
+  ReloadResult result;
+  auto& pending = prepared.programs;
+  for (const auto& n : pending) {
     if (n.error.empty()) continue;
-    result.failed.push_back(n.program->name);
+    result.failed.push_back(programs_[n.index].name);
     result.errors.push_back(n.error);
   }
   if (!result.failed.empty()) {
     // All or nothing: every last good pipeline stays; what was made is dropped unused.
-    for (const Pending& n : pending)
-      if (n.error.empty()) result.held.push_back(n.program->name);
+    for (const auto& n : pending)
+      if (n.error.empty()) result.held.push_back(programs_[n.index].name);
     return result;
   }
 
   // 3. Swap them all in (the GPU idle); if an install fails, put back those already installed.
-  const bool any_new =
-      std::any_of(pending.begin(), pending.end(), [](const Pending& n) { return !n.same; });
+  const bool any_new = std::any_of(pending.begin(), pending.end(),
+                                   [](const PreparedReload::Program& n) { return !n.same; });
   if (any_new && before_first_create) before_first_create();
   for (size_t i = 0; i < pending.size(); ++i) {
-    Program& p = *pending[i].program;
+    Program& p = programs_[pending[i].index];
     try {
       pending[i].install();
     } catch (const Error& e) {
       result.failed.push_back(p.name);
       result.errors.push_back(e.what());
       for (size_t k = 0; k < i; ++k) {
-        Program& done = *pending[k].program;
+        Program& done = programs_[pending[k].index];
         try {
           if (!pending[k].same) done.prepare(done.current)();  // a kept one is still in place
           result.held.push_back(done.name);
@@ -282,15 +290,17 @@ ReloadResult ProgramRegistry::reload(const std::vector<fs::path>& changed_files,
                                   "' failed: " + again.what());
         }
       }
-      for (size_t k = i + 1; k < pending.size(); ++k) result.held.push_back(pending[k].program->name);
+      for (size_t k = i + 1; k < pending.size(); ++k)
+        result.held.push_back(programs_[pending[k].index].name);
       return result;
     }
   }
-  for (Pending& n : pending) {
-    if (n.same) result.same_spirv.push_back(n.program->name);
-    n.program->current = std::move(n.spirv);
-    n.program->dependencies = std::move(n.deps);
-    result.rebuilt.push_back(n.program->name);
+  for (auto& n : pending) {
+    Program& p = programs_[n.index];
+    if (n.same) result.same_spirv.push_back(p.name);
+    p.current = std::move(n.spirv);
+    p.dependencies = std::move(n.deps);
+    result.rebuilt.push_back(p.name);
   }
   return result;
 }
@@ -314,6 +324,7 @@ std::vector<std::string> ProgramRegistry::programs_reading(const fs::path& file)
 
 void ProgramRegistry::remove(const std::string& name) {
   std::erase_if(programs_, [&](const Program& p) { return p.name == name; });
+  ++generation_;
 }
 
 std::vector<std::string> ProgramRegistry::names() const {

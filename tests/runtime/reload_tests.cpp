@@ -13,7 +13,9 @@
 #include <penumbra/scene/filters.hpp>
 #include <penumbra/scene/params.hpp>
 #include <penumbra/testing/gpu_test.hpp>
+#include <random>
 #include <set>
+#include <thread>
 
 #include "session.hpp"
 #include "temp_tree.hpp"
@@ -115,6 +117,99 @@ TEST_F(ReloadTest, AValidEditChangesTheImage) {
   EXPECT_GT(differing_pixels(before, after), before.size() / 4 / 2)
       << "half the exposure darkens most pixels";
   EXPECT_EQ(after, cold_start()) << "the reloaded pipeline renders what a fresh one does";
+}
+
+// A reload in two steps, the first while the GPU renders a frame (as Session::render does for
+// a burst that finishes then): the frame in flight runs the old pipelines, the next the new
+// ones; a broken edit keeps them; and when the renderer's programs change between the steps (a
+// filter set through scene() swaps the resolve's variant), the finish prepares again.
+TEST_F(ReloadTest, AReloadPreparedWhileTheGpuRendersSwapsInAfterTheFrame) {
+  render::RendererOptions o;
+  o.shader_dir = tree.shaders();
+  render::Renderer r(ctx(), small_scene("default"), o);
+  r.render(0);
+  const auto before = r.read_rgba8();
+  const std::vector<fs::path> pcf{shader("penumbra/pcf.glsl")};
+  auto prepare_during_frame = [&] {
+    std::optional<shader::PreparedReload> prepared;
+    std::thread worker;
+    int calls = 0;
+    r.render(0, [&] {
+      if (calls++ == 0) worker = std::thread([&] { prepared = r.prepare_reload(pcf); });
+    });
+    worker.join();
+    EXPECT_GE(calls, 1);
+    return prepared;
+  };
+
+  edit("penumbra/pcf.glsl", kSaturate, kLighterShadows);
+  auto prepared = prepare_during_frame();
+  EXPECT_EQ(r.read_rgba8(), before) << "the frame in flight runs the last pipelines";
+  ASSERT_TRUE(prepared);
+  auto result = r.finish_reload(std::move(*prepared));
+  EXPECT_TRUE(result.ok()) << ::testing::PrintToString(result.errors);
+  EXPECT_EQ(short_names(result.rebuilt), std::vector<std::string>{"shadow-resolve"});
+  r.render(0);
+  const auto lighter = r.read_rgba8();
+  EXPECT_NE(lighter, before);
+  EXPECT_EQ(lighter, cold_start());
+
+  edit("penumbra/pcf.glsl", kLighterShadows, kLighterShadows + " +");  // does not compile
+  prepared = prepare_during_frame();
+  ASSERT_TRUE(prepared);
+  result = r.finish_reload(std::move(*prepared));
+  EXPECT_EQ(short_names(result.failed), std::vector<std::string>{"shadow-resolve"});
+  r.render(0);
+  EXPECT_EQ(r.read_rgba8(), lighter);
+
+  // Mended while the frame runs; then PCF is set and its variant of the resolve replaces the
+  // hard one before the finish: the finish compiles for the programs there are now.
+  edit("penumbra/pcf.glsl", kLighterShadows + " +", kSaturate);
+  prepared = prepare_during_frame();
+  ASSERT_TRUE(prepared);
+  scene::set_param(r.scene(), "shadows.filter", "pcf");
+  r.prepare();
+  result = r.finish_reload(std::move(*prepared));
+  EXPECT_TRUE(result.ok()) << ::testing::PrintToString(result.errors);
+  EXPECT_EQ(short_names(result.rebuilt), std::vector<std::string>{"shadow-resolve"});
+  r.render(0);
+  scene::Scene with_pcf = small_scene("default");
+  scene::set_param(with_pcf, "shadows.filter", "pcf");
+  render::Renderer fresh(ctx(), with_pcf, o);
+  fresh.render(0);
+  EXPECT_EQ(r.read_rgba8(), fresh.read_rgba8());
+}
+
+// In a frame loop (the windowed viewer), saves land at any moment of a frame: whether the burst
+// is compiled during a frame or between two, the first frame after it renders what a fresh
+// renderer of the edited tree renders, and its latency is recorded.
+TEST_F(ReloadTest, SavesDuringAFrameLoopReloadWhereverTheyLand) {
+  auto s = start();
+  std::mt19937 rng(7);
+  int during = 0;
+  for (int i = 0; i < 4; ++i) {
+    const std::string text = testing::replaced(testing::read_text(shader("render/tonemap.comp")),
+                                               i % 2 == 0 ? kExposure : kHalfExposure,
+                                               i % 2 == 0 ? kHalfExposure : kExposure);
+    const size_t before = s->reloads().size();
+    std::thread later([&, wait = std::uniform_int_distribution<int>(0, 20)(rng)] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(wait));
+      testing::write_text(shader("render/tonemap.comp"), text);
+    });
+    const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+    const runtime::ReloadRecord* done = nullptr;
+    while (!done && std::chrono::steady_clock::now() < deadline) {
+      s->render();
+      for (size_t r = before; r < s->reloads().size(); ++r)
+        if (s->reloads()[r].latency_ms) done = &s->reloads()[r];
+    }
+    later.join();
+    ASSERT_TRUE(done) << "no reload with a latency after save " << i;
+    EXPECT_TRUE(done->result.ok()) << s->error_text();
+    during += done->during_frame ? 1 : 0;
+    EXPECT_EQ(s->pixels(), cold_start()) << "save " << i;
+  }
+  std::printf("[          ] %d of 4 saves compiled during a frame\n", during);
 }
 
 TEST_F(ReloadTest, AnEditOfALibraryFunctionChangesTheShadows) {

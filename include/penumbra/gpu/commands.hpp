@@ -25,6 +25,10 @@ class CommandRecorder {
 
   VkCommandBuffer begin();  // resets and begins
   void submit_and_wait();   // ends, submits, waits on the fence
+  // The same, calling while_waiting right after the submit and then every couple of
+  // milliseconds until the fence signals (work for the CPU while the GPU runs the commands: a
+  // hot reload's compile).
+  void submit_and_wait(const std::function<void()>& while_waiting);
   VkCommandBuffer handle() const { return cmd_; }
 
  private:

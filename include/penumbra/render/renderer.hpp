@@ -7,6 +7,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <penumbra/gpu/context.hpp>
 #include <penumbra/gpu/resources.hpp>
@@ -123,6 +124,10 @@ class Renderer {
 
   // Records, submits and waits for one frame (prepare() first).
   void render(uint32_t frame_index = 0);
+  // The same, calling while_gpu_busy right after the submit and then every couple of
+  // milliseconds until the frame is done: it may start prepare_reload on another thread, and
+  // must call nothing else of this renderer.
+  void render(uint32_t frame_index, const std::function<void()>& while_gpu_busy);
   // Makes what the scene as it is now needs that the last frame did not: the resolves compile
   // only the filters the scene's lights use, so a filter changed through scene() compiles the
   // resolve again. Throws penumbra::Error (with file:line) when that does not compile; the
@@ -162,6 +167,12 @@ class Renderer {
   // Hot reload: rebuilds exactly the pipelines whose shader sources or includes read one of
   // these files. A source that fails to compile leaves its pipeline as it was.
   ReloadResult reload(const std::vector<std::filesystem::path>& changed_files);
+  // The same in two steps (shader::ProgramRegistry::prepare_reload): prepare_reload compiles and
+  // makes the new pipelines and changes nothing, so it may run on another thread while render()
+  // waits for the GPU (and nothing else is called); finish_reload swaps them in.
+  shader::PreparedReload prepare_reload(
+      const std::vector<std::filesystem::path>& changed_files) const;
+  ReloadResult finish_reload(shader::PreparedReload prepared);
   // Every file the pipelines' shaders read (stage files and includes), weakly canonical.
   std::vector<std::filesystem::path> shader_files() const;
   // The pipelines that read `file` (directly or through includes).

@@ -55,6 +55,22 @@ struct ReloadResult {
   bool ok() const { return failed.empty(); }
 };
 
+// A reload's first two steps done (ProgramRegistry::prepare_reload): the programs the change
+// reaches compiled and checked, and their new pipelines made; finish_reload swaps them in.
+struct PreparedReload {
+  struct Program {
+    size_t index = 0;  // in the registry's programs, as of `generation`
+    Spirvs spirv;
+    std::set<std::filesystem::path> deps;
+    std::string error;  // a compile error or the interface changes
+    std::function<void()> install;
+    bool same = false;  // the SPIR-V the running pipelines were made from: they are kept
+  };
+  std::vector<std::filesystem::path> changed;
+  uint64_t generation = 0;  // the registry's programs changed since: prepared again at finish
+  std::vector<Program> programs;
+};
+
 class ProgramRegistry {
  public:
   // Makes and installs a program's pipelines from its SPIR-V, in one step (with the GPU idle).
@@ -101,6 +117,13 @@ class ProgramRegistry {
   // runs once, before the first create (the renderer waits for the GPU to be idle there).
   ReloadResult reload(const std::vector<std::filesystem::path>& changed_files,
                       const std::function<void()>& before_first_create = {});
+  // The same in two steps, for a caller that compiles while the GPU renders a frame:
+  // prepare_reload compiles, checks and makes the new pipelines and changes nothing (it may run
+  // on another thread, while nothing calls a non-const member of this registry);
+  // finish_reload swaps them in, or keeps every last good one when one failed.
+  PreparedReload prepare_reload(const std::vector<std::filesystem::path>& changed_files) const;
+  ReloadResult finish_reload(PreparedReload prepared,
+                             const std::function<void()>& before_first_create = {});
 
   // Every file the programs read (stage files and includes), weakly canonical.
   std::vector<std::filesystem::path> files() const;
@@ -119,7 +142,7 @@ class ProgramRegistry {
     Spirvs current;                    // the SPIR-V of the running pipeline
   };
   Spirvs compile(const std::vector<ProgramSource>& sources,
-                 std::set<std::filesystem::path>* dependencies);
+                 std::set<std::filesystem::path>* dependencies) const;
   // What in a recompiled program's interface differs from what its pipeline was made for, each
   // with the file:line of the declaration, as one message; empty when nothing does.
   std::string interface_report(const Program& p, const Spirvs& spirv,
@@ -130,8 +153,9 @@ class ProgramRegistry {
 
   std::filesystem::path shader_dir_;
   std::vector<std::filesystem::path> search_path_;  // weakly canonical
-  Compiler compiler_;
+  mutable Compiler compiler_;  // its cache is its own to guard (programs compile in parallel)
   std::vector<Program> programs_;
+  uint64_t generation_ = 0;  // counts the changes of programs_ (add, remove)
 };
 
 }  // namespace penumbra::shader
