@@ -1,4 +1,5 @@
 #version 460
+#extension GL_EXT_control_flow_attributes : require
 // Analytic sphere shadows: per pixel, every shadowed light's visibility (the sun's in the
 // shadow-info image, the spots' and point lights' in the local-shadow image) times what the
 // scene's analytic spheres leave of the light, in closed form (penumbra/sphere_shadow.glsl).
@@ -66,12 +67,24 @@ void main() {
 #endif
 #if PENUMBRA_LOCAL_SHADOWS
   vec4 local = imageLoad(local_shadow, pixel);
-  for (int i = 0; i < int(frame.counts.x); ++i)
-    if (frame.spots[i].params.y >= 0.0 && local[i] > 0.0)
-      local[i] *= local_sphere_visibility(frame.spots[i], p);
-  for (int i = 0; i < int(frame.counts.y); ++i)
-    if (frame.points[i].params.y >= 0.0 && local[kMaxSpotLights + i] > 0.0)
-      local[kMaxSpotLights + i] *= local_sphere_visibility(frame.points[i], p);
+  // One loop over the lights present, the spots then the point lights, so the spheres'
+  // occlusion is compiled once, not once for each kind: llvmpipe compiled a new version of this
+  // shader for the orrery (one point light, three spheres) in 98-101 ms instead of 152-170, and
+  // the pass ran in 21.9 ms instead of 25.6 at 640x360 (docs/hot-reload.md). Not unrolled: the
+  // copies would undo it. (A loop over all four slots, skipping the absent ones, cost a third
+  // more per frame: llvmpipe runs a skipped iteration's body with no lane on.)
+  int spots = int(frame.counts.x);
+  [[dont_unroll]] for (int k = 0; k < spots + int(frame.counts.y); ++k) {
+    bool spot = k < spots;
+    int i = spot ? k : k - spots;
+    int slot = spot ? i : kMaxSpotLights + i;
+    LightGpu light;  // assigned, not chosen by ?: (glslang's SPIR-V for that is invalid)
+    if (spot)
+      light = frame.spots[i];
+    else
+      light = frame.points[i];
+    if (light.params.y >= 0.0 && local[slot] > 0.0) local[slot] *= local_sphere_visibility(light, p);
+  }
   imageStore(local_shadow, pixel, local);
 #endif
 }
