@@ -9,6 +9,12 @@
 #ifndef PENUMBRA_MASK_TEXTURES
 #define PENUMBRA_MASK_TEXTURES 0
 #endif
+// 0 in the opaque pipelines, whose draws have no mask: no alpha test and no discard (a stage
+// with a discard may lose the early depth test), and an edit of the masks reaches only the
+// masked pipelines.
+#ifndef PENUMBRA_ALPHA_TEST
+#define PENUMBRA_ALPHA_TEST 1
+#endif
 
 #if PENUMBRA_MASK_TEXTURES > 0
 layout(set = 1, binding = 0) uniform sampler2D mask_textures[PENUMBRA_MASK_TEXTURES];
@@ -16,6 +22,9 @@ layout(set = 1, binding = 0) uniform sampler2D mask_textures[PENUMBRA_MASK_TEXTU
 
 // True when the draw's material cuts the fragment at uv out.
 bool draw_alpha_discards(DrawPush d, vec2 uv) {
+#if !PENUMBRA_ALPHA_TEST
+  return false;
+#else
   int pattern = int(d.mask.x);
 #if PENUMBRA_MASK_TEXTURES > 0
   if (pattern == kMaskTexture) {
@@ -24,6 +33,7 @@ bool draw_alpha_discards(DrawPush d, vec2 uv) {
   }
 #endif
   return alpha_test_discards(uv, pattern, d.mask.zw, d.mask.y);
+#endif
 }
 
 #endif

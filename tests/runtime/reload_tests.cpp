@@ -369,6 +369,21 @@ TEST_F(ReloadTest, FixingAFileThatOnlyTheBrokenSourceIncludesClearsTheError) {
   EXPECT_EQ(s->pixels(), cold_start());
 }
 
+// The opaque pipelines compile no alpha test (their draws have no mask, and a discard may cost a
+// stage its early depth test): an edit of a mask pattern changes the masked pipelines only, and
+// renders what a fresh renderer of the edited tree renders.
+TEST_F(ReloadTest, AnEditOfAMaskReachesOnlyTheMaskedPipelines) {
+  auto s = start();
+  edit("penumbra/material.glsl", "return fract(p.x) < 0.5 ? 1.0 : 0.0;",
+       "return fract(p.x) < 0.25 ? 1.0 : 0.0;");
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(short_names(rec->result.same_spirv),
+            (std::vector<std::string>{"forward-opaque", "prepass-opaque"}));
+  EXPECT_EQ(s->pixels(), cold_start());
+}
+
 struct IncludeCase {
   std::string scene;
   std::string file;

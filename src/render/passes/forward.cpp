@@ -23,8 +23,11 @@ ForwardPass::ForwardPass(FrameResources& r) {
   if (r.visibility_output) defines.push_back({"PENUMBRA_VISIBILITY_OUTPUT", "1"});
   for (bool masked : {false, true}) {
     if (masked && !req.masked_materials) continue;
+    // The opaque pipeline has no alpha test (its draws have no mask): no discard.
+    auto fragment = defines;
+    if (!masked) fragment.push_back({"PENUMBRA_ALPHA_TEST", "0"});
     r.add_pipeline(variant(std::string("forward-") + (masked ? "masked" : "opaque"), defines),
-                   {{"render/geometry.vert", {}}, {"render/forward.frag", defines}},
+                   {{"render/geometry.vert", {}}, {"render/forward.frag", fragment}},
                    masked ? masked_ : opaque_, [&r, masked, this](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];

@@ -12,8 +12,11 @@ PrepassPass::PrepassPass(FrameResources& r) {
       uint32_t(sizeof(DrawPush)), all);
   for (bool masked : {false, true}) {
     if (masked && !r.req.masked_materials) continue;
+    // The opaque pipeline has no alpha test (its draws have no mask): no discard.
+    auto fragment = mask_defines(r);
+    if (!masked) fragment.push_back({"PENUMBRA_ALPHA_TEST", "0"});
     r.add_pipeline(std::string("prepass-") + (masked ? "masked" : "opaque"),
-                   {{"render/geometry.vert", {}}, {"render/prepass.frag", mask_defines(r)}},
+                   {{"render/geometry.vert", {}}, {"render/prepass.frag", fragment}},
                    masked ? masked_ : opaque_, [&r, masked, this](const shader::Spirvs& spirv) {
                      gpu::GraphicsPipelineDesc d;
                      d.vertex_spirv = spirv[0];

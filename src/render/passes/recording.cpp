@@ -301,7 +301,7 @@ namespace {
 // The draws `take` accepts, opaque then masked, each with its model from `model`, `index` pushed
 // (z: whether it casts, which the prepass marks for the contact pass; w: its mask texture).
 // Every draw layout has the mask set when the scene samples mask textures (the opaque pipelines
-// share the masked ones' fragment shaders, which declare it).
+// share the masked ones' fragment shaders, without their alpha test, and declare it).
 // `parts(i)`: null for the mesh's own indices whole, else ranges of its caster indices.
 template <class Take, class Model, class Parts>
 uint64_t draw_list(VkCommandBuffer cmd, FrameResources& r, const gpu::PipelineLayout& layout,
