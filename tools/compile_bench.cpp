@@ -12,11 +12,11 @@
 //     a version whose moved constants are all in code the specialization removes is compiled
 //     too;
 //   - with --dispatch, the first dispatch of one workgroup with the new pipeline (submit and
-//     wait), on stand-in resources (zeroed buffers and push constants, 4x4 images): where llvmpipe compiles the
-//     code with LLVM. The data the program reads does not change what is compiled.
+//     wait), on stand-in resources (zeroed buffers and push constants, 4x4 images): where llvmpipe
+//     compiles the code with LLVM. The data the program reads does not change what is compiled.
 // Prints the SPIR-V's size and the median, least and greatest of each, and the device.
-// --write-spirv DIR (made if missing) writes each compiled program's SPIR-V there (DIR/<name>.spv), for
-// spirv-dis or spirv-opt, and to time it again as a .spv file.
+// --write-spirv DIR (made if missing) writes each compiled program's SPIR-V there (DIR/<name>.spv),
+// for spirv-dis or spirv-opt, and to time it again as a .spv file.
 //
 //   penumbra-compile-bench --program FILE [--program FILE ...] [--define NAME=VALUE ...]
 //       [--spec ID=VALUE ...] [--versions N] [--dispatch] [--shader-dir DIR] [--write-spirv DIR]
@@ -378,8 +378,8 @@ int main(int argc, char** argv) {
       std::error_code ec;
       fs::create_directories(o.write_spirv, ec);
       if (ec)
-        throw Error("--write-spirv " + o.write_spirv.string() + ": cannot create it: " +
-                    ec.message());
+        throw Error("--write-spirv " + o.write_spirv.string() +
+                    ": cannot create it: " + ec.message());
     }
     run(o);
     return 0;

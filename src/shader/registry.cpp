@@ -231,8 +231,9 @@ PreparedReload ProgramRegistry::prepare_reload(const std::vector<fs::path>& chan
   // A program whose SPIR-V did not change (a comment, or code it does not call) keeps its
   // pipelines: they are what the new code would make, and the driver is not asked again (on
   // lavapipe that costs a compile at the next use even when its cache answers).
-  const bool compiled = std::all_of(pending.begin(), pending.end(),
-                                    [](const PreparedReload::Program& n) { return n.error.empty(); });
+  const bool compiled =
+      std::all_of(pending.begin(), pending.end(),
+                  [](const PreparedReload::Program& n) { return n.error.empty(); });
   if (compiled) {
     parallel_for(pending.size(), [&](size_t i) {
       PreparedReload::Program& next = pending[i];

@@ -77,6 +77,23 @@ class ReloadTest : public GpuTest {
     r.render(0);
     return r.read_rgba8();
   }
+  // A renderer built from scratch for a scene with these keys set (specialize = false: every
+  // filter and view compiled, the choice read from the frame): one frame's pixels.
+  std::vector<uint8_t> fresh_render(std::string_view scene,
+                                    const std::vector<std::pair<std::string, std::string>>& set,
+                                    bool specialize = true) {
+    scene::Scene sc = small_scene(scene);
+    for (const auto& [key, value] : set) scene::set_param(sc, key, value);
+    return fresh_render(sc, specialize);
+  }
+  std::vector<uint8_t> fresh_render(const scene::Scene& sc, bool specialize = true) {
+    render::RendererOptions o;
+    o.shader_dir = tree.shaders();
+    o.specialize = specialize;
+    render::Renderer r(ctx(), sc, o);
+    r.render(0);
+    return r.read_rgba8();
+  }
   fs::path shader(const std::string& rel) const {
     return fs::weakly_canonical(tree.shaders() / rel);
   }
@@ -173,11 +190,7 @@ TEST_F(ReloadTest, AReloadPreparedWhileTheGpuRendersSwapsInAfterTheFrame) {
   EXPECT_TRUE(result.ok()) << ::testing::PrintToString(result.errors);
   EXPECT_EQ(short_names(result.rebuilt), std::vector<std::string>{"shadow-resolve"});
   r.render(0);
-  scene::Scene with_pcf = small_scene("default");
-  scene::set_param(with_pcf, "shadows.filter", "pcf");
-  render::Renderer fresh(ctx(), with_pcf, o);
-  fresh.render(0);
-  EXPECT_EQ(r.read_rgba8(), fresh.read_rgba8());
+  EXPECT_EQ(r.read_rgba8(), fresh_render("default", {{"shadows.filter", "pcf"}}));
 }
 
 // In a frame loop (the windowed viewer), saves land at any moment of a frame: whether the burst
@@ -599,16 +612,7 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
       << "the default scene's resolve holds no penumbra view";
   s->set("render.view", "penumbra");
   s->render();
-  {
-    scene::Scene view = small_scene("default");
-    scene::set_param(view, "render.view", "penumbra");
-    render::RendererOptions o;
-    o.shader_dir = tree.shaders();
-    o.specialize = false;
-    render::Renderer every(ctx(), view, o);
-    every.render(0);
-    EXPECT_EQ(s->pixels(), every.read_rgba8());
-  }
+  EXPECT_EQ(s->pixels(), fresh_render("default", {{"render.view", "penumbra"}}, false));
   s->set("render.view", "lit");
   s->render();
   EXPECT_EQ(s->pixels(), hard);
@@ -682,15 +686,10 @@ TEST_F(ReloadTest, ThePcfResolveCompilesThePoissonDiskOnlyWithConstantWidth) {
 
   s->set("shadows.constant_filter_width", "true");
   s->render();
-  scene::Scene disk = small_scene("default");
-  scene::set_param(disk, "shadows.filter", "pcf");
-  scene::set_param(disk, "shadows.constant_filter_width", "true");
-  render::RendererOptions o;
-  o.shader_dir = tree.shaders();
-  o.specialize = false;  // every filter compiled, the choice read from the frame
-  render::Renderer every(ctx(), disk, o);
-  every.render(0);
-  EXPECT_EQ(s->pixels(), every.read_rgba8());
+  EXPECT_EQ(
+      s->pixels(),
+      fresh_render("default",
+                   {{"shadows.filter", "pcf"}, {"shadows.constant_filter_width", "true"}}, false));
   EXPECT_NE(s->pixels(), pcf);
 }
 
@@ -700,14 +699,6 @@ TEST_F(ReloadTest, ThePcfResolveCompilesThePoissonDiskOnlyWithConstantWidth) {
 // containment, a clipmap's levels), the specialized renderer renders what the unspecialized one
 // does (every filter and selection compiled, the choice read from the frame).
 TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
-  auto render_with = [&](const scene::Scene& sc, bool specialize) {
-    render::RendererOptions o;
-    o.shader_dir = tree.shaders();
-    o.specialize = specialize;
-    render::Renderer r(ctx(), sc, o);
-    r.render(0);
-    return r.read_rgba8();
-  };
   struct Case {
     std::string scene, filter, view;
     std::optional<scene::Filter> spot, point;  // the lights' own filters
@@ -742,7 +733,7 @@ TEST_F(ReloadTest, SpecializedResolvesRenderWhatTheUnspecializedOnesDo) {
     for (auto& l : sc.spots) l.filter = c.spot;
     for (auto& l : sc.points) l.filter = c.point;
     for (const auto& [key, value] : c.set) scene::set_param(sc, key, value);
-    EXPECT_EQ(render_with(sc, true), render_with(sc, false))
+    EXPECT_EQ(fresh_render(sc, true), fresh_render(sc, false))
         << c.scene << ", " << c.filter << ", " << c.view;
   }
 }

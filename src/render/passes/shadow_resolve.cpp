@@ -75,7 +75,7 @@ std::vector<shader::Define> local_defines(const FrameResources& r) {
 constexpr uint32_t kByDepth = 0, kByContainment = 1, kClipmap = 2;
 uint32_t sun_selection(const FrameResources& r) {
   const auto& sh = r.scene.shadows;
-  return sh.layout == scene::ShadowLayout::clipmap                ? kClipmap
+  return sh.layout == scene::ShadowLayout::clipmap              ? kClipmap
          : sh.selection == scene::CascadeSelection::containment ? kByContainment
                                                                 : kByDepth;
 }
