@@ -79,6 +79,7 @@ Session::Session(gpu::Context& ctx, scene::Scene scene, SessionOptions options)
   if (options_.watch) {
     WatcherOptions wo;
     wo.debounce = options_.debounce;
+    wo.max_delay = std::max(wo.max_delay, options_.debounce);  // a longer debounce is kept
     std::vector<fs::path> dirs{shader_dir_};
     dirs.insert(dirs.end(), library_dirs_.begin(), library_dirs_.end());
     watcher_ = std::make_unique<Watcher>(dirs, wo);
@@ -174,6 +175,7 @@ void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height
   errors_.clear();
   retry_.clear();
   awaiting_frame_.clear();
+  early_.reset();  // made by the old renderer
 }
 
 void Session::load_scene(const scene::Scene& scene) {
@@ -229,18 +231,53 @@ std::string Session::get(const std::string& key) {
   return scene::get_param(renderer_->scene(), key);
 }
 
-ReloadRecord Session::apply(const std::vector<FileChange>& changes) {
+ReloadRecord Session::apply(const std::vector<FileChange>& changes,
+                            std::optional<std::uint64_t> count) {
   ReloadRecord rec = collect(changes);
-  if (rec.changed.empty()) return rec;
-  const auto t0 = Clock::now();
-  try {
-    rec.result = renderer_->reload(rec.changed);
-  } catch (const Error& e) {
-    failed(rec, e);
-  }
-  rec.reload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
-  conclude(rec);
+  finish(rec, count);
   return rec;
+}
+
+void Session::finish(ReloadRecord& rec, std::optional<std::uint64_t> count) {
+  std::optional<Early> early = std::move(early_);
+  early_.reset();
+  if (rec.changed.empty()) return;
+  // The compile begun while the burst settled holds when no change came after its look and it
+  // read the same files; otherwise it is dropped (its pipelines with it) and this batch compiles.
+  if (early && count && early->count == *count && early->files == rec.changed &&
+      (early->prepared || early->failure)) {
+    rec.compiled_early = early->looked;
+    rec.during_frame = rec.during_frame || early->during_frame;
+    if (early->looked)
+      rec.waited_ms = std::max(
+          0.0, std::chrono::duration<double, std::milli>(early->started - rec.event).count());
+    try {
+      if (early->failure) std::rethrow_exception(early->failure);
+      rec.result = renderer_->finish_reload(std::move(*early->prepared));
+    } catch (const Error& e) {
+      failed(rec, e);
+    }
+    rec.reload_ms = ms_since(early->started);
+  } else {
+    const auto t0 = Clock::now();
+    try {
+      rec.result = renderer_->reload(rec.changed);
+    } catch (const Error& e) {
+      failed(rec, e);
+    }
+    rec.reload_ms = std::chrono::duration<double, std::milli>(Clock::now() - t0).count();
+  }
+  conclude(rec);
+}
+
+Session::Early Session::look_at_pending() {
+  Early e;
+  if (!watcher_) return e;
+  const auto changes = watcher_->pending(&e.count, kEarlyQuiet);
+  if (changes.empty()) return e;
+  e.files = collect(changes, true).changed;
+  e.looked = true;
+  return e;
 }
 
 void Session::failed(ReloadRecord& rec, const Error& e) {
@@ -252,7 +289,7 @@ void Session::failed(ReloadRecord& rec, const Error& e) {
   rec.result.errors.assign(names.size(), e.what());
 }
 
-ReloadRecord Session::collect(const std::vector<FileChange>& changes) {
+ReloadRecord Session::collect(const std::vector<FileChange>& changes, bool quiet) {
   ReloadRecord rec;
   rec.event = Clock::now();
   std::set<fs::path> files = retry_;
@@ -279,9 +316,10 @@ ReloadRecord Session::collect(const std::vector<FileChange>& changes) {
   if (overlay_removed.empty() &&
       std::none_of(changes.begin(), changes.end(), [](const FileChange& c) { return c.exists; }))
     files.clear();
-  for (const auto& f : overlay_removed)
-    log("[reload] " + relative(f) + " was removed from " + shader_dir_.string() +
-        ": the library's copy is read instead");
+  if (!quiet)
+    for (const auto& f : overlay_removed)
+      log("[reload] " + relative(f) + " was removed from " + shader_dir_.string() +
+          ": the library's copy is read instead");
   // A retried file that is gone now: its pipelines wait for it to come back.
   for (auto it = files.begin(); it != files.end();) {
     std::error_code ec;
@@ -289,6 +327,7 @@ ReloadRecord Session::collect(const std::vector<FileChange>& changes) {
   }
   rec.changed.assign(files.begin(), files.end());
   rec.waited_ms = ms_since(rec.event);
+  if (quiet) return rec;
   for (const auto& d : rec.deleted) {
     log("[reload] " + relative(d) + " was deleted; " +
         join(short_names(renderer_->pipelines_reading(d))) + " keep running until it is back");
@@ -343,9 +382,10 @@ void Session::conclude(ReloadRecord& rec) {
 
 std::optional<ReloadRecord> Session::poll_reload() {
   if (!watcher_) return std::nullopt;
-  const auto changes = watcher_->poll_changes();
+  std::uint64_t count = 0;
+  const auto changes = watcher_->poll_changes(&count);
   if (changes.empty()) return std::nullopt;
-  ReloadRecord rec = apply(changes);
+  ReloadRecord rec = apply(changes, count);
   if (!rec.result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
   reloads_.push_back(rec);
   return rec;
@@ -359,11 +399,29 @@ ReloadRecord Session::reload(const std::vector<fs::path>& files) {
     const fs::path p = fs::weakly_canonical(fs::absolute(f), ec);
     changes.push_back({ec ? f : p, fs::exists(f, ec), now, now});
   }
-  ReloadRecord rec = apply(changes);
+  ReloadRecord rec = apply(changes, std::nullopt);
   if (!rec.result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
   reloads_.push_back(rec);
   return rec;
 }
+
+namespace {
+
+// Renderer::prepare_reload of `files` on a worker thread, into `into`; join() it before anything
+// else touches the renderer or `into`.
+std::thread compile_on_worker(render::Renderer& renderer, std::vector<fs::path> files,
+                              std::optional<shader::PreparedReload>& into,
+                              std::exception_ptr& failure) {
+  return std::thread([&renderer, &into, &failure, files = std::move(files)] {
+    try {
+      into = renderer.prepare_reload(files);
+    } catch (...) {
+      failure = std::current_exception();
+    }
+  });
+}
+
+}  // namespace
 
 std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeout,
                                                  const std::optional<fs::path>& file) {
@@ -378,13 +436,34 @@ std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeo
     want.insert(fs::weakly_canonical(abs, ec));
   }
   const auto deadline = Clock::now() + timeout;
+  const auto left = [&] {
+    return std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
+  };
   for (;;) {
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - Clock::now());
-    if (left.count() <= 0) return std::nullopt;
-    const auto changes = watcher_->wait(left);
+    if (left().count() <= 0) return std::nullopt;
+    // A burst has begun: its files compile now, while it settles (an early compile that a later
+    // change made stale goes first).
+    if (early_ && early_->count != watcher_->change_count()) early_.reset();
+    std::thread worker;
+    if (options_.compile_early && !early_ && watcher_->wait_pending(left(), kEarlyQuiet)) {
+      Early look = look_at_pending();
+      if (!look.files.empty()) {
+        look.started = Clock::now();
+        early_ = std::move(look);
+        worker = compile_on_worker(*renderer_, early_->files, early_->prepared, early_->failure);
+      }
+    }
+    std::uint64_t count = 0;
+    std::vector<FileChange> changes;
+    try {
+      changes = watcher_->wait(std::max(left(), std::chrono::milliseconds(0)), &count);
+    } catch (...) {
+      if (worker.joinable()) worker.join();
+      throw;
+    }
+    if (worker.joinable()) worker.join();
     if (changes.empty()) continue;
-    ReloadRecord rec = apply(changes);
+    ReloadRecord rec = apply(changes, count);
     if (!rec.result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
     reloads_.push_back(rec);
     const bool match =
@@ -401,29 +480,33 @@ std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeo
 void Session::render(uint32_t count) {
   for (uint32_t i = 0; i < count; ++i) {
     poll_reload();
-    // A burst that finishes while the GPU renders: its files are collected and compiled on a
-    // worker (Renderer::prepare_reload) while this thread waits for the frame, and swapped in
-    // after it. Before, the compile began only once the frame was done.
+    // While the GPU renders, on a worker: the files of a burst that has begun (they compile
+    // while it settles) or that finished during the frame (collected then). Swapped in after
+    // the frame when the burst is handed out with no change since; before, the compile began
+    // only once the frame was done, and only after the debounce.
     std::optional<ReloadRecord> during;
-    std::optional<shader::PreparedReload> prepared;
-    std::exception_ptr failure;
+    std::uint64_t during_count = 0;
     std::thread worker;
-    Clock::time_point t0;
     const auto while_busy = [&] {
       if (during || !watcher_) return;
-      const auto changes = watcher_->poll_changes();
-      if (changes.empty()) return;
-      during = collect(changes);
-      if (during->changed.empty()) return;
-      during->during_frame = true;
-      t0 = Clock::now();
-      worker = std::thread([this, &prepared, &failure, files = during->changed] {
-        try {
-          prepared = renderer_->prepare_reload(files);
-        } catch (...) {
-          failure = std::current_exception();
-        }
-      });
+      const auto changes = watcher_->poll_changes(&during_count);
+      if (!changes.empty()) {
+        during = collect(changes);
+        if (during->changed.empty() || worker.joinable()) return;  // or compiled after the frame
+        if (early_ && early_->count == during_count && early_->files == during->changed) return;
+        early_.emplace();
+        early_->count = during_count;
+        early_->files = during->changed;
+      } else {
+        if (!options_.compile_early || worker.joinable()) return;
+        if (early_ && early_->count == watcher_->change_count()) return;
+        Early look = look_at_pending();
+        if (look.files.empty()) return;
+        early_ = std::move(look);
+      }
+      early_->started = Clock::now();
+      early_->during_frame = true;
+      worker = compile_on_worker(*renderer_, early_->files, early_->prepared, early_->failure);
     };
     try {
       renderer_->render(frame_index_, while_busy);
@@ -431,6 +514,7 @@ void Session::render(uint32_t count) {
       if (worker.joinable()) worker.join();
       throw;
     }
+    if (worker.joinable()) worker.join();
     rendered_ = true;
     for (const size_t index : awaiting_frame_) {
       ReloadRecord& rec = reloads_[index];
@@ -446,17 +530,7 @@ void Session::render(uint32_t count) {
     }
     awaiting_frame_.clear();
     if (!during) continue;
-    if (worker.joinable()) {
-      worker.join();
-      try {
-        if (failure) std::rethrow_exception(failure);
-        during->result = renderer_->finish_reload(std::move(*prepared));
-      } catch (const Error& e) {
-        failed(*during, e);
-      }
-      during->reload_ms = ms_since(t0);
-      conclude(*during);
-    }
+    finish(*during, during_count);
     if (!during->result.rebuilt.empty()) awaiting_frame_.push_back(reloads_.size());
     reloads_.push_back(*during);
   }

@@ -18,8 +18,16 @@
 //
 // Latency: from the moment the watcher saw the first event of a burst to the end of the first
 // frame rendered with the rebuilt pipelines.
+//
+// A burst compiles while it settles: as soon as the watcher sees its first event, the files as
+// they stand are compiled (Renderer::prepare_reload, on a worker) while the debounce runs. When
+// the burst is handed out with no change after that look (Watcher::change_count), those
+// pipelines are swapped in; otherwise they are dropped and the batch compiles again. What is
+// swapped in was always read after the burst's last change.
 
 #include <chrono>
+#include <cstdint>
+#include <exception>
 #include <filesystem>
 #include <functional>
 #include <map>
@@ -46,6 +54,9 @@ struct SessionOptions {
   bool watch = true;                    // false: no watcher (reload only through reload())
   bool visibility_output = false;       // the renderer writes each light's visibility (--truth)
   std::chrono::milliseconds debounce = kDefaultDebounce;
+  // Compile a burst's files while it settles (see the top); false: only once it is handed out
+  // (penumbra-reload-bench --late-compile measures the difference).
+  bool compile_early = true;
   // Every line the session prints ("[reload] ..."); default: stdout, flushed.
   std::function<void(const std::string&)> log;
 };
@@ -62,6 +73,9 @@ struct ReloadRecord {
   // frames, the wait for the next poll.
   double waited_ms = 0.0;
   bool during_frame = false;  // compiled while a frame ran, swapped in after it
+  // Compiled while the burst settled (before the watcher handed it out): reload_ms counts from
+  // the start of that compile, and waited_ms up to it.
+  bool compiled_early = false;
   Clock::time_point event;  // the first event of the burst, as the watcher saw it
   std::optional<double> latency_ms;  // event -> end of the first frame with the new pipelines
   // Whether the batch touched a pipeline (rebuilt, failed or lost a file it reads).
@@ -135,11 +149,26 @@ class Session {
   std::string relative(const std::filesystem::path& file) const;
 
  private:
-  ReloadRecord apply(const std::vector<FileChange>& changes);
-  // apply() in steps: the files of a burst (rec.changed; deletions logged), then after the
-  // renderer's reload, the errors, the retries and the log.
-  ReloadRecord collect(const std::vector<FileChange>& changes);
+  // count: the watcher's change count as of the batch (nullopt: not from the watcher).
+  ReloadRecord apply(const std::vector<FileChange>& changes, std::optional<std::uint64_t> count);
+  // apply() in steps: the files of a burst (rec.changed; deletions logged unless quiet), then
+  // the reload (finish: the compile begun early when it still holds, else one now), then the
+  // errors, the retries and the log (conclude).
+  ReloadRecord collect(const std::vector<FileChange>& changes, bool quiet = false);
+  void finish(ReloadRecord& rec, std::optional<std::uint64_t> count);
   void conclude(ReloadRecord& rec);
+  // A compile of a burst's files begun before the batch is handed out (see the top).
+  struct Early {
+    std::uint64_t count = 0;  // the watcher's change count when the files were read
+    std::vector<std::filesystem::path> files;
+    Clock::time_point started;
+    bool looked = false;  // read from a look at the burst before it was handed out
+    bool during_frame = false;
+    std::optional<shader::PreparedReload> prepared;
+    std::exception_ptr failure;
+  };
+  // The files of the burst in progress and the count of that look; empty files: nothing to do.
+  Early look_at_pending();
   // A reload that threw (a stage file that cannot be read): every pipeline reading one of the
   // files failed with that message, and keeps its last good state.
   void failed(ReloadRecord& rec, const Error& e);
@@ -169,6 +198,7 @@ class Session {
   std::set<std::filesystem::path> retry_;  // files of failed batches, passed again
   std::vector<ReloadRecord> reloads_;
   std::vector<std::size_t> awaiting_frame_;  // indices in reloads_ waiting for their first frame
+  std::optional<Early> early_;  // prepared, waiting for its batch (no thread runs on it)
 };
 
 // The median of v (0 for an empty v).

@@ -94,6 +94,7 @@ void Watcher::add_tree(const fs::path& dir, bool report_files) {
       auto& p = pending_[canonical_dir(it->path().parent_path()) / it->path().filename()];
       if (p.first == Clock::time_point{}) p.first = now;
       p.last = now;
+      ++changes_;
     }
   }
 }
@@ -141,6 +142,7 @@ void Watcher::handle_buffer(const char* data, size_t size, Clock::time_point now
     auto& p = pending_[path];
     if (p.first == Clock::time_point{}) p.first = now;
     p.last = now;
+    ++changes_;
     any = true;
   }
   if (any || pending_.size() != before) {
@@ -176,22 +178,53 @@ bool Watcher::ready(Clock::time_point now) const {
   return now - burst_last_ >= options_.debounce || now - burst_first_ >= options_.max_delay;
 }
 
-std::vector<FileChange> Watcher::take() {
+std::vector<FileChange> Watcher::snapshot() const {
   std::vector<FileChange> out;
   out.reserve(pending_.size());
   for (const auto& [path, p] : pending_) {
     std::error_code ec;
     out.push_back({path, fs::exists(path, ec), p.first, p.last});
   }
+  return out;
+}
+
+std::vector<FileChange> Watcher::take() {
+  std::vector<FileChange> out = snapshot();
   pending_.clear();
   burst_first_ = burst_last_ = Clock::time_point{};
   return out;
 }
 
-std::vector<FileChange> Watcher::poll_changes() {
+std::vector<FileChange> Watcher::poll_changes(std::uint64_t* count) {
   std::lock_guard lock(mutex_);
   if (!ready(Clock::now())) return {};
+  if (count) *count = changes_;
   return take();
+}
+
+std::vector<FileChange> Watcher::pending(std::uint64_t* count,
+                                         std::chrono::milliseconds quiet) const {
+  std::lock_guard lock(mutex_);
+  if (count) *count = changes_;
+  if (pending_.empty() || Clock::now() - burst_last_ < quiet) return {};
+  return snapshot();
+}
+
+bool Watcher::wait_pending(std::chrono::milliseconds timeout, std::chrono::milliseconds quiet) {
+  const auto deadline = Clock::now() + timeout;
+  std::unique_lock lock(mutex_);
+  for (;;) {
+    const auto now = Clock::now();
+    if (!pending_.empty() && now - burst_last_ >= quiet) return true;
+    if (now >= deadline) return false;
+    // An event wakes this; a burst in progress wakes it when its quiet time is over.
+    cv_.wait_until(lock, pending_.empty() ? deadline : std::min(deadline, burst_last_ + quiet));
+  }
+}
+
+std::uint64_t Watcher::change_count() const {
+  std::lock_guard lock(mutex_);
+  return changes_;
 }
 
 std::vector<fs::path> Watcher::poll() {
@@ -200,12 +233,15 @@ std::vector<fs::path> Watcher::poll() {
   return out;
 }
 
-std::vector<FileChange> Watcher::wait(std::chrono::milliseconds timeout) {
+std::vector<FileChange> Watcher::wait(std::chrono::milliseconds timeout, std::uint64_t* count) {
   const auto deadline = Clock::now() + timeout;
   std::unique_lock lock(mutex_);
   for (;;) {
     const auto now = Clock::now();
-    if (ready(now)) return take();
+    if (ready(now)) {
+      if (count) *count = changes_;
+      return take();
+    }
     if (now >= deadline) return {};
     // Wake at the end of the debounce window of a burst in progress, or at the deadline.
     auto until = deadline;

@@ -223,6 +223,7 @@ struct Options {
   fs::path shader_dir;            // the tree to copy; empty: the repo's shaders/
   bool all = false;               // every file of penumbra/ and render/
   std::vector<std::string> modes{"new-loop", "undo-loop", "new-change", "undo-change"};
+  bool late_compile = false;  // compile a burst only once the debounce has handed it out
 };
 
 Options parse(int argc, char** argv) {
@@ -243,6 +244,9 @@ Options parse(int argc, char** argv) {
         std::tie(o.width, o.height) = penumbra::cli::size("--size", v, 16, 16384);
       },
       "the render size (default 640x360)");
+  app.flag("--late-compile", o.late_compile,
+           "compile a save only once the debounce is over (the runtime compiles it while the "
+           "debounce runs: this measures what that saves)");
   app.option(
       "--edits",
       [&](const std::string& v) { o.edits = int(penumbra::cli::whole("--edits", v, 2, 100000)); },
@@ -278,6 +282,7 @@ struct Row {
   std::string rebuilt;
   int same_spirv = 0;  // edits after which every rebuilt program kept its SPIR-V
   int during_frame = 0;  // edits compiled while a frame ran (the frame loop)
+  int early = 0;         // edits compiled while their burst settled (before the debounce ended)
 };
 
 penumbra::scene::Scene scene_for(const Setting& setting) {
@@ -370,6 +375,7 @@ void measure(penumbra::runtime::Session& session, const fs::path& shaders, const
       row.frame.push_back(*done->latency_ms - done->waited_ms - done->reload_ms);
       if (done->result.same_spirv.size() == done->result.rebuilt.size()) ++row.same_spirv;
       if (done->during_frame) ++row.during_frame;
+      if (done->compiled_early) ++row.early;
       if (row.rebuilt.empty()) {
         for (const auto& n : done->result.rebuilt)
           row.rebuilt += (row.rebuilt.empty() ? "" : ", ") + n.substr(0, n.find(' '));
@@ -382,13 +388,14 @@ void measure(penumbra::runtime::Session& session, const fs::path& shaders, const
       note = "  (SPIR-V unchanged in " + std::to_string(row.same_spirv) + ")";
     std::printf(
         "  %-34s %-25s latency %4.0f ms (%.2f steady frames; min %4.0f, p99 %4.0f, max %4.0f)"
-        "  waited %4.0f  reload %4.0f  frame %4.0f  in a frame %2d/%-2d  rebuilt: %s%s\n",
+        "  waited %4.0f  reload %4.0f  frame %4.0f  in a frame %2d/%-2d  early %2d/%-2d"
+        "  rebuilt: %s%s\n",
         row.file.c_str(), row.mode.c_str(), median(row.latency), median(row.latency) / frame,
         *std::min_element(row.latency.begin(), row.latency.end()),
         penumbra::stats::quantile(row.latency, 0.99),
         *std::max_element(row.latency.begin(), row.latency.end()), median(row.waited),
-        median(row.reload), median(row.frame), row.during_frame, o.edits, row.rebuilt.c_str(),
-        note.c_str());
+        median(row.reload), median(row.frame), row.during_frame, o.edits, row.early, o.edits,
+        row.rebuilt.c_str(), note.c_str());
     std::fflush(stdout);
   }
   write_text(file, original);  // restored, and reloaded before the next file's first edit
@@ -512,6 +519,7 @@ int run(int argc, char** argv) {
     so.shader_dir = shaders;
     so.width = o.width;
     so.height = o.height;
+    so.compile_early = !o.late_compile;
     so.log = [](const std::string&) {};
     penumbra::runtime::Session session(ctx, scene_for(setting), so);
     // Warm up, and the frame time without reloads.
@@ -539,9 +547,11 @@ int run(int argc, char** argv) {
   }
   std::printf(
       "(medians over %d edits; latency = file event -> end of the first frame with the "
-      "new pipelines = waited (the debounce; for a save seen between frames, the rest of the "
-      "frame in flight too) + reload (compile + pipelines; compiled in a frame, until that "
-      "frame ends) + frame; in a frame: saves compiled while a frame ran)\n",
+      "new pipelines = waited (until the compile began: the debounce, or with early compiles "
+      "the first look at the burst; in the frame loop, for a save seen between frames, the rest "
+      "of the frame in flight too) + reload (compile + pipelines, until swapped in: after the "
+      "debounce, and for a compile in a frame after that frame) + frame; in a frame: saves "
+      "compiled while a frame ran; early: saves compiled while the debounce ran)\n",
       o.edits);
   if (ctx.validation_enabled()) {  // PENUMBRA_VALIDATION=1: any message fails the run
     const auto messages = ctx.validation_sink().take();

@@ -61,9 +61,12 @@ size_t differing_pixels(const std::vector<uint8_t>& a, const std::vector<uint8_t
 
 class ReloadTest : public GpuTest {
  protected:
-  std::unique_ptr<runtime::Session> start(std::string_view scene = "default") {
+  std::unique_ptr<runtime::Session> start(
+      std::string_view scene = "default",
+      std::chrono::milliseconds debounce = runtime::kDefaultDebounce) {
     runtime::SessionOptions o;
     o.shader_dir = tree.shaders();
+    o.debounce = debounce;
     o.log = [this](const std::string& line) { log.push_back(line); };
     auto s = std::make_unique<runtime::Session>(ctx(), small_scene(scene), o);
     s->render();
@@ -223,6 +226,68 @@ TEST_F(ReloadTest, SavesDuringAFrameLoopReloadWhereverTheyLand) {
     EXPECT_EQ(s->pixels(), cold_start()) << "save " << i;
   }
   std::printf("[          ] %d of 4 saves compiled during a frame\n", during);
+}
+
+// A save compiles while its burst settles: the compile begins at the first look at the burst,
+// long before a 400 ms debounce ends, and what is swapped in is what a fresh renderer of the
+// edited tree renders.
+TEST_F(ReloadTest, ASaveCompilesWhileItsBurstSettles) {
+  const std::chrono::milliseconds debounce(400);
+  auto s = start("default", debounce);
+  edit("render/tonemap.comp", kExposure, kHalfExposure);
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_TRUE(rec->compiled_early);
+  EXPECT_LT(rec->waited_ms, double(debounce.count())) << "the compile began after the debounce";
+  EXPECT_EQ(s->pixels(), cold_start());
+  // The same with the early compile off: the compile waits for the debounce.
+  runtime::SessionOptions o;
+  o.shader_dir = tree.shaders();
+  o.debounce = debounce;
+  o.compile_early = false;
+  o.log = [](const std::string&) {};
+  runtime::Session late(ctx(), small_scene("default"), o);
+  late.render();
+  edit("render/tonemap.comp", kHalfExposure, kExposure);
+  const auto late_rec = late.wait_reload(kTimeout);
+  ASSERT_TRUE(late_rec);
+  EXPECT_FALSE(late_rec->compiled_early);
+  EXPECT_GE(late_rec->waited_ms, double(debounce.count()) - 1.0);
+  EXPECT_EQ(late.pixels(), cold_start());
+}
+
+// A change after the early look makes that compile stale: the batch compiles again, so the
+// image is the last save's, wherever the second save lands (before the look, during the early
+// compile, or after its batch was handed out).
+TEST_F(ReloadTest, AChangeAfterTheEarlyLookIsCompiledAgain) {
+  auto s = start("default", std::chrono::milliseconds(400));
+  int stale = 0;
+  for (const int wait_ms : {0, 30, 120}) {
+    const std::string half = testing::read_text(shader("render/tonemap.comp"));
+    edit("render/tonemap.comp", kExposure, kHalfExposure);
+    std::thread second([&] {
+      std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+      // A third exposure, neither the first's nor the second's.
+      testing::write_text(shader("render/tonemap.comp"),
+                          testing::replaced(half, kExposure,
+                                            "vec3 color = texelFetch(hdr, pixel, 0).rgb * "
+                                            "frame.ambient.w * 0.25;"));
+    });
+    const auto rec = s->wait_reload(kTimeout);
+    second.join();
+    ASSERT_TRUE(rec);
+    // Until the watcher has handed out every change: the second save may be a batch of its own.
+    while (s->wait_reload(std::chrono::milliseconds(1000))) {
+    }
+    EXPECT_TRUE(s->errors().empty()) << s->error_text();
+    for (const auto& r : s->reloads()) stale += (!r.changed.empty() && !r.compiled_early) ? 1 : 0;
+    EXPECT_EQ(s->pixels(), cold_start()) << "second save " << wait_ms << " ms after the first";
+    edit("render/tonemap.comp", "frame.ambient.w * 0.25;", "frame.ambient.w;");
+    ASSERT_TRUE(s->wait_reload(kTimeout));
+    EXPECT_EQ(s->pixels(), cold_start());
+  }
+  std::printf("[          ] %d reloads compiled again after a stale early compile\n", stale);
 }
 
 TEST_F(ReloadTest, AnEditOfALibraryFunctionChangesTheShadows) {

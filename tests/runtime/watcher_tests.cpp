@@ -96,6 +96,39 @@ TEST_F(WatcherTest, PollNeverBlocksAndReturnsTheBatchOnceQuiet) {
   EXPECT_GE(Clock::now() - t0, 250ms) << "handed out before the quiet time";
 }
 
+// What a reload compiles while a burst settles: the burst can be looked at before it is handed
+// out, and the change count says whether anything changed after the look.
+TEST_F(WatcherTest, ABurstCanBeLookedAtBeforeItIsHandedOutAndItsCountTellsALaterChange) {
+  runtime::WatcherOptions o;
+  o.debounce = 400ms;  // long, so the looks below are surely inside it
+  Watcher w({tree.root()}, o);
+  std::uint64_t count = 99;
+  EXPECT_TRUE(w.pending(&count).empty());
+  EXPECT_EQ(count, 0u);
+  EXPECT_FALSE(w.wait_pending(20ms)) << "no burst has begun";
+  testing::write_text(file("penumbra/pcf.glsl"), "float pcf() { return 0.5; }\n");
+  ASSERT_TRUE(w.wait_pending(kTimeout, 2ms));
+  std::uint64_t looked = 0;
+  const auto look = w.pending(&looked);
+  EXPECT_THAT(paths(look), ElementsAre(file("penumbra/pcf.glsl")));
+  EXPECT_GT(looked, 0u);
+  EXPECT_TRUE(w.pending(nullptr, 10s).empty()) << "a look asks for a quiet burst";
+  EXPECT_TRUE(w.poll().empty()) << "looking does not hand the burst out";
+  std::uint64_t handed = 0;
+  EXPECT_THAT(paths(w.wait(kTimeout, &handed)), ElementsAre(file("penumbra/pcf.glsl")));
+  EXPECT_EQ(handed, looked) << "nothing changed after the look";
+
+  // A change after the look: the batch's count is past the look's.
+  testing::write_text(file("penumbra/pcf.glsl"), "float pcf() { return 0.25; }\n");
+  ASSERT_TRUE(w.wait_pending(kTimeout));
+  w.pending(&looked);
+  testing::write_text(file("render/x.comp"), "void main() {}\n");
+  EXPECT_THAT(paths(w.wait(kTimeout, &handed)),
+              ElementsAre(file("penumbra/pcf.glsl"), file("render/x.comp")));
+  EXPECT_GT(handed, looked);
+  EXPECT_EQ(w.change_count(), handed);
+}
+
 TEST_F(WatcherTest, ABurstOfWritesIsOneBatchWithEachFileOnce) {
   runtime::WatcherOptions o;
   o.debounce = 200ms;  // a busy machine may pause the writer for a while
