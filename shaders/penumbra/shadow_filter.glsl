@@ -32,18 +32,6 @@ const uint kAllFilters = 0xffffffffu;
 #ifndef PENUMBRA_FILTERS_CUBE
 #define PENUMBRA_FILTERS_CUBE 0x7fffffff
 #endif
-// Which forms of PCSS over a 2D array shadow_filter_2d_array compiles, when a stage defines
-// these to 0: PENUMBRA_PCSS_DIRECTIONAL the sun's (pcss_shadow_array, through the window),
-// PENUMBRA_PCSS_PERSPECTIVE a spot light's (pcss_spot_shadow_array). A form left out returns 1
-// (lit), as a filter left out does. A resolve that only ever asks for one form leaves the other
-// out of its SPIR-V: NVIDIA's compile follows the SPIR-V's code, specialization or not
-// (docs/hot-reload.md).
-#ifndef PENUMBRA_PCSS_DIRECTIONAL
-#define PENUMBRA_PCSS_DIRECTIONAL 1
-#endif
-#ifndef PENUMBRA_PCSS_PERSPECTIVE
-#define PENUMBRA_PCSS_PERSPECTIVE 1
-#endif
 
 bool filter_allowed(uint allowed, uint mode) {
   return mode < 32u && (allowed & (1u << mode)) != 0u;
@@ -148,17 +136,12 @@ float shadow_filter_2d_array(uint mode, uint allowed, sampler2DArrayShadow compa
 #endif
 #if (((PENUMBRA_FILTERS_2D) >> PENUMBRA_FILTER_PCSS) & 1) != 0
   if (filter_allowed(allowed, kFilterPcss) && mode == kFilterPcss) {
-#if PENUMBRA_PCSS_PERSPECTIVE
     if (q.perspective)
       return pcss_spot_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel,
                                     q.receiver_distance, q.pcss_local, q.pcss_tier, q.rotation,
                                     q.reverse_z, q.plane_gradient);
-#endif
-#if PENUMBRA_PCSS_DIRECTIONAL
-    if (!q.perspective)
-      return pcss_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel, q.pcss,
-                               q.pcss_tier, q.rotation, q.reverse_z, window);
-#endif
+    return pcss_shadow_array(compare_map, depth_map, q.coord, q.layer, q.texel, q.pcss,
+                             q.pcss_tier, q.rotation, q.reverse_z, window);
   }
 #endif
   return 1.0;

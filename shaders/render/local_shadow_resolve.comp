@@ -8,9 +8,6 @@
 // views' data of the primary shadowed local light (the first shadowed spot, else the first
 // shadowed point light): x the map (0 spot, 1-6 cube face +X..-Z, -1 none), y shadow-map texels
 // per screen pixel, z the PCSS penumbra width in texels (penumbra view only; -1 facing away).
-// The spot lights' PCSS is the perspective form only (shadow_filter.glsl): the sun's is not
-// compiled.
-#define PENUMBRA_PCSS_DIRECTIONAL 0
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/bias.glsl"

@@ -4,8 +4,6 @@
 // Output rgba16f: r visibility (1 lit), g cascade index (-1 none), b PCSS penumbra width in
 // texels (-1: the surface faces away from the sun; in the debug view `redrawn`, redrawn_code),
 // a shadow-map texels per screen pixel (texel density).
-// The sun's PCSS is the directional form only (shadow_filter.glsl): a spot light's is not compiled.
-#define PENUMBRA_PCSS_PERSPECTIVE 0
 #include "penumbra/frame_types.glsl"
 #include "penumbra/shadow_types.glsl"
 #include "penumbra/shadow.glsl"

@@ -728,60 +728,6 @@ TEST_F(ReloadTest, TheResolvesCompileOnlyTheFiltersTheSceneUses) {
   EXPECT_EQ(r.read_rgba8(), fresh.read_rgba8());
 }
 
-// The sun resolve compiles the directional form of PCSS only and the local resolve the
-// perspective (spot) form only (PENUMBRA_PCSS_DIRECTIONAL / _PERSPECTIVE, shadow_filter.glsl):
-// an edit of the other form changes neither's SPIR-V, and an edit of its own form reaches it.
-TEST_F(ReloadTest, EachResolveCompilesOnlyItsOwnFormOfPcss) {
-  const std::string spot_search =
-      "texel_size, reverse_z, plane_gradient, blocker_depth, blockers);\n"
-      "  if (blockers == 0) return 1.0;";
-  const std::string sun_search =
-      "reverse_z, window, blocker_depth, blockers);\n  if (blockers == 0) return 1.0;";
-  const auto lit_when_no_blocker = [](const std::string& text) {
-    return text.substr(0, text.size() - 4) + "0.999;";
-  };
-  for (const std::string scene : {"default", "indoor"}) {
-    SCOPED_TRACE(scene);
-    // Without indoor's temporal accumulation, so a frame after a reload is a fresh renderer's.
-    const std::vector<std::pair<std::string, std::string>> keys{{"shadows.temporal", "false"},
-                                                                {"shadows.filter", "pcss"}};
-    auto s = start(scene);
-    for (const auto& [key, value] : keys) s->set(key, value);
-    s->render();
-    const auto before = s->pixels();
-    const bool sun = scene == "default";
-    const std::string resolve = sun ? "shadow-resolve" : "local-shadow-resolve";
-    // The other form: its file's programs rebuild, with the SPIR-V they had.
-    const std::string other_file = sun ? "penumbra/local_shadow.glsl" : "penumbra/pcss.glsl";
-    const std::string other = sun ? spot_search : sun_search;
-    edit(other_file, other, lit_when_no_blocker(other));
-    auto rec = s->wait_reload(kTimeout);
-    ASSERT_TRUE(rec);
-    EXPECT_TRUE(rec->result.ok()) << s->error_text();
-    EXPECT_THAT(short_names(rec->result.rebuilt), ::testing::Contains(resolve));
-    EXPECT_THAT(short_names(rec->result.same_spirv), ::testing::Contains(resolve))
-        << "the other form of PCSS is compiled into " << resolve;
-    // indoor's sun (through the skylight) uses PCSS too: its resolve takes the edit.
-    if (sun) {
-      EXPECT_EQ(s->pixels(), before);
-    }
-    EXPECT_EQ(s->pixels(), fresh_render(scene, keys));
-    // Its own form: the SPIR-V changes.
-    const std::string own_file = sun ? "penumbra/pcss.glsl" : "penumbra/local_shadow.glsl";
-    const std::string own = sun ? sun_search : spot_search;
-    edit(own_file, own, lit_when_no_blocker(own));
-    rec = s->wait_reload(kTimeout);
-    ASSERT_TRUE(rec);
-    EXPECT_TRUE(rec->result.ok()) << s->error_text();
-    EXPECT_THAT(short_names(rec->result.rebuilt), ::testing::Contains(resolve));
-    EXPECT_THAT(short_names(rec->result.same_spirv), ::testing::Not(::testing::Contains(resolve)));
-    // Undone for the next scene.
-    edit(other_file, lit_when_no_blocker(other), other);
-    edit(own_file, lit_when_no_blocker(own), own);
-    ASSERT_TRUE(s->wait_reload(kTimeout));
-  }
-}
-
 // With PCF the sun resolve compiles the Poisson disk that constant width turns it into only
 // while shadows.constant_filter_width is on: an edit of the disk alone does not change the PCF
 // resolve's SPIR-V, and turning constant width on compiles the disk (with the edit) and renders
