@@ -166,6 +166,7 @@ void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height
     throw Error(std::string("the renderer could not be rebuilt (the old one keeps running): ") +
                 e.what());
   }
+  early_.reset();  // made by the old renderer: dropped before it goes
   renderer_ = std::move(fresh);
   watch_outside_files();
   width_ = width;
@@ -175,7 +176,6 @@ void Session::rebuild(const scene::Scene& scene, uint32_t width, uint32_t height
   errors_.clear();
   retry_.clear();
   awaiting_frame_.clear();
-  early_.reset();  // made by the old renderer
 }
 
 void Session::load_scene(const scene::Scene& scene) {

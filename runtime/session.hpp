@@ -139,6 +139,8 @@ class Session {
   // The errors joined, one per distinct message; empty when every pipeline is good.
   std::string error_text() const;
   const std::vector<ReloadRecord>& reloads() const { return reloads_; }
+  // A compile begun while a burst settles is waiting for its batch (see the top).
+  bool compiled_early_waiting() const { return early_.has_value(); }
   const ReloadRecord* last_reload() const { return reloads_.empty() ? nullptr : &reloads_.back(); }
   std::vector<double> latencies_ms() const;
   double median_latency_ms() const;

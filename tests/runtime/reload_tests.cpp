@@ -257,6 +257,28 @@ TEST_F(ReloadTest, ASaveCompilesWhileItsBurstSettles) {
   EXPECT_EQ(late.pixels(), cold_start());
 }
 
+// A renderer rebuilt while an early compile waits for its batch drops that compile (it was made
+// by the old renderer): the batch compiles on the new one, and the image is a fresh renderer's
+// of the edited tree with the new key.
+TEST_F(ReloadTest, ARebuildDropsTheCompileBegunBeforeIt) {
+  // A 2 s debounce: the compile begins in the first frame, long before the batch is handed out.
+  auto s = start("default", std::chrono::milliseconds(2000));
+  edit("render/tonemap.comp", kExposure, kHalfExposure);
+  // Frames until the compile has begun (the frame loop looks at the burst while the GPU works).
+  const auto deadline = std::chrono::steady_clock::now() + kTimeout;
+  while (!s->compiled_early_waiting() && s->reloads().empty() &&
+         std::chrono::steady_clock::now() < deadline)
+    s->render();
+  ASSERT_TRUE(s->reloads().empty()) << "handed out before the test could rebuild";
+  ASSERT_TRUE(s->compiled_early_waiting());
+  s->set("shadows.cascades", "2");  // a key that rebuilds the renderer
+  EXPECT_FALSE(s->compiled_early_waiting());
+  const auto rec = s->wait_reload(kTimeout);
+  ASSERT_TRUE(rec);
+  EXPECT_TRUE(rec->result.ok()) << s->error_text();
+  EXPECT_EQ(s->pixels(), fresh_render("default", {{"shadows.cascades", "2"}}));
+}
+
 // A change after the early look makes that compile stale: the batch compiles again, so the
 // image is the last save's, wherever the second save lands (before the look, during the early
 // compile, or after its batch was handed out).
