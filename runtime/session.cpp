@@ -405,23 +405,22 @@ ReloadRecord Session::reload(const std::vector<fs::path>& files) {
   return rec;
 }
 
-namespace {
-
-// Renderer::prepare_reload of `files` on a worker thread, into `into`; join() it before anything
-// else touches the renderer or `into`.
-std::thread compile_on_worker(render::Renderer& renderer, std::vector<fs::path> files,
-                              std::optional<shader::PreparedReload>& into,
-                              std::exception_ptr& failure) {
-  return std::thread([&renderer, &into, &failure, files = std::move(files)] {
+std::thread Session::start_early_compile(Early e, bool during_frame) {
+  e.started = Clock::now();
+  e.during_frame = during_frame;
+  early_ = std::move(e);
+  return std::thread([this] {
     try {
-      into = renderer.prepare_reload(files);
+      early_->prepared = renderer_->prepare_reload(early_->files);
     } catch (...) {
-      failure = std::current_exception();
+      early_->failure = std::current_exception();
     }
   });
 }
 
-}  // namespace
+bool Session::early_is_current() const {
+  return early_ && watcher_ && early_->count == watcher_->change_count();
+}
 
 std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeout,
                                                  const std::optional<fs::path>& file) {
@@ -443,15 +442,11 @@ std::optional<ReloadRecord> Session::wait_reload(std::chrono::milliseconds timeo
     if (left().count() <= 0) return std::nullopt;
     // A burst has begun: its files compile now, while it settles (an early compile that a later
     // change made stale goes first).
-    if (early_ && early_->count != watcher_->change_count()) early_.reset();
+    if (!early_is_current()) early_.reset();
     std::thread worker;
     if (options_.compile_early && !early_ && watcher_->wait_pending(left(), kEarlyQuiet)) {
       Early look = look_at_pending();
-      if (!look.files.empty()) {
-        look.started = Clock::now();
-        early_ = std::move(look);
-        worker = compile_on_worker(*renderer_, early_->files, early_->prepared, early_->failure);
-      }
+      if (!look.files.empty()) worker = start_early_compile(std::move(look), false);
     }
     std::uint64_t count = 0;
     std::vector<FileChange> changes;
@@ -494,19 +489,15 @@ void Session::render(uint32_t count) {
         during = collect(changes);
         if (during->changed.empty() || worker.joinable()) return;  // or compiled after the frame
         if (early_ && early_->count == during_count && early_->files == during->changed) return;
-        early_.emplace();
-        early_->count = during_count;
-        early_->files = during->changed;
-      } else {
-        if (!options_.compile_early || worker.joinable()) return;
-        if (early_ && early_->count == watcher_->change_count()) return;
-        Early look = look_at_pending();
-        if (look.files.empty()) return;
-        early_ = std::move(look);
+        Early batch;
+        batch.count = during_count;
+        batch.files = during->changed;
+        worker = start_early_compile(std::move(batch), true);
+        return;
       }
-      early_->started = Clock::now();
-      early_->during_frame = true;
-      worker = compile_on_worker(*renderer_, early_->files, early_->prepared, early_->failure);
+      if (!options_.compile_early || worker.joinable() || early_is_current()) return;
+      Early look = look_at_pending();
+      if (!look.files.empty()) worker = start_early_compile(std::move(look), true);
     };
     try {
       renderer_->render(frame_index_, while_busy);

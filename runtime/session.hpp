@@ -38,6 +38,7 @@
 #include <penumbra/scene/scene.hpp>
 #include <set>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "watcher.hpp"
@@ -171,6 +172,11 @@ class Session {
   };
   // The files of the burst in progress and the count of that look; empty files: nothing to do.
   Early look_at_pending();
+  // Makes e the early compile and starts it on a worker (Renderer::prepare_reload into
+  // early_); join the worker before anything else touches the renderer or early_.
+  std::thread start_early_compile(Early e, bool during_frame);
+  // An early compile whose look no change has come after.
+  bool early_is_current() const;
   // A reload that threw (a stage file that cannot be read): every pipeline reading one of the
   // files failed with that message, and keeps its last good state.
   void failed(ReloadRecord& rec, const Error& e);
